@@ -1,0 +1,62 @@
+//! Errors of the core: invalid parameters, and steps that blow up.
+
+use crate::math::Real;
+
+/// A parameter is out of its documented range or inconsistent with another.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    /// A value outside its valid range. `key` is the scene-file key path (`cloth.mass`).
+    #[error("`{key}` = {value} is out of range: allowed {range}")]
+    OutOfRange {
+        /// Scene-file key path, e.g. `cloth.mass` or `collider[0].friction`.
+        key: String,
+        /// The offending value as written.
+        value: String,
+        /// The allowed range, in words.
+        range: String,
+    },
+    /// A value that is invalid for another reason.
+    #[error("`{key}`: {message}")]
+    Invalid {
+        /// Scene-file key path.
+        key: String,
+        /// What is wrong and how to fix it.
+        message: String,
+    },
+}
+
+impl ConfigError {
+    /// The scene-file key path the error is about.
+    pub fn key(&self) -> &str {
+        match self {
+            ConfigError::OutOfRange { key, .. } | ConfigError::Invalid { key, .. } => key,
+        }
+    }
+}
+
+/// A step produced a state no cloth can be in; the state before the step is kept.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StepError {
+    /// A position became NaN or infinite.
+    #[error(
+        "the simulation blew up at t = {time:.6} s: a particle position became non-finite; \
+         try a smaller time_step"
+    )]
+    NonFinite {
+        /// Simulated time of the step that failed, s.
+        time: Real,
+    },
+    /// A structural spring stretched far past anything cloth survives.
+    #[error(
+        "the simulation blew up at t = {time:.6} s: a structural spring is stretched to \
+         {ratio:.1} times its rest length (limit {limit}); try a smaller time_step"
+    )]
+    OverStretch {
+        /// Simulated time, s.
+        time: Real,
+        /// Current length / rest length of the longest structural spring.
+        ratio: Real,
+        /// The limit that was passed.
+        limit: Real,
+    },
+}

@@ -1,0 +1,89 @@
+//! Per-frame measurements: the columns of `metrics.csv`.
+
+use crate::math::Real;
+use crate::sim::Simulation;
+
+/// Column names of [`FrameMetrics::values`], in order, as in `metrics.csv` (after `frame`).
+pub const COLUMNS: [&str; 8] = [
+    "time",
+    "air_volume",
+    "air_pressure",
+    "kinetic_energy",
+    "max_stretch",
+    "contact_fraction",
+    "max_height",
+    "grab_force",
+];
+
+/// Measurements of one state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameMetrics {
+    /// Simulated time, s.
+    pub time: Real,
+    /// Bubble volume (eq. 3.10), m^3.
+    pub air_volume: Real,
+    /// Bubble pressure (Boyle, eq. 3.9), Pa; atmospheric with the air force off.
+    pub air_pressure: Real,
+    /// Kinetic energy, J, with velocities `(x(t) - x(t - dt)) / dt`.
+    pub kinetic_energy: Real,
+    /// Largest relative elongation of a structural spring (0.1 = 10 % longer than at rest;
+    /// negative when every spring is compressed).
+    pub max_stretch: Real,
+    /// Fraction of particles that touched a collider during the last step, 0..1.
+    pub contact_fraction: Real,
+    /// Largest particle height (y), m.
+    pub max_height: Real,
+    /// Magnitude of the summed force of all grabs on the cloth, N.
+    pub grab_force: Real,
+}
+
+impl FrameMetrics {
+    /// Measures the current state of `sim`.
+    pub fn measure(sim: &Simulation) -> Self {
+        let grid = sim.grid();
+        let (x, prev) = (sim.positions(), sim.previous_positions());
+        let dt = sim.time_step();
+        let n = grid.len();
+        let mut v2 = 0.0;
+        let mut max_height = Real::NEG_INFINITY;
+        let mut max_stretch = Real::NEG_INFINITY;
+        let mut contacts = 0usize;
+        for k in 0..n {
+            let p = x.get(k);
+            v2 += (p - prev.get(k)).length_squared();
+            max_height = max_height.max(p.y);
+            contacts += usize::from(sim.in_contact(k));
+            let (i, j) = (k % grid.nx, k / grid.nx);
+            if i + 1 < grid.nx {
+                max_stretch = max_stretch.max((x.get(k + 1) - p).length() / grid.dx - 1.0);
+            }
+            if j + 1 < grid.nz {
+                max_stretch = max_stretch.max((x.get(k + grid.nx) - p).length() / grid.dz - 1.0);
+            }
+        }
+        Self {
+            time: sim.time(),
+            air_volume: sim.air_volume(),
+            air_pressure: sim.air_pressure(),
+            kinetic_energy: 0.5 * sim.particle_mass() * v2 / (dt * dt),
+            max_stretch,
+            contact_fraction: contacts as Real / n as Real,
+            max_height,
+            grab_force: sim.grab_force().length(),
+        }
+    }
+
+    /// The values in [`COLUMNS`] order.
+    pub fn values(&self) -> [Real; 8] {
+        [
+            self.time,
+            self.air_volume,
+            self.air_pressure,
+            self.kinetic_energy,
+            self.max_stretch,
+            self.contact_fraction,
+            self.max_height,
+            self.grab_force,
+        ]
+    }
+}

@@ -1,0 +1,197 @@
+//! Self-collision: particles are spheres of diameter `thickness + collision_margin` that must
+//! not overlap (thesis 3.1).
+//!
+//! Broad phase: a uniform hash grid (cells of `diameter + skin`, counting sort) builds, for each
+//! particle, the list of particles within `diameter + skin` of it. The lists stay valid until
+//! some particle has moved more than `skin / 2` since they were built (two particles closing
+//! in on each other then have closed by at most `skin`), so a cloth that is settling or lying
+//! still rebuilds rarely. Narrow phase, every step: each particle pushes itself out of its
+//! listed neighbours by its share of the overlap (Jacobi: all corrections are computed from the
+//! same positions, then applied, so the result does not depend on the order or the threads).
+//!
+//! Grid neighbours closer at rest than the diameter (a very fine cloth) are kept at their rest
+//! distance instead: they are not pushed apart by the cloth's own tessellation.
+
+use crate::cloth::Grid;
+use crate::math::{Real, Soa, Vec3};
+use rayon::prelude::*;
+
+/// The skin of the neighbour lists, as a fraction of the particle diameter.
+const SKIN_FRACTION: Real = 1.0;
+
+/// Self-collision state: the neighbour lists and their reference positions.
+#[derive(Clone, Debug, Default)]
+pub struct SelfCollision {
+    diameter: Real,
+    skin: Real,
+    reference: Soa,
+    /// CSR neighbour lists: neighbours of `i` are `list[start[i]..start[i + 1]]`.
+    start: Vec<u32>,
+    list: Vec<u32>,
+    /// Scratch for the broad phase.
+    cells: Vec<[i64; 3]>,
+    bucket_start: Vec<u32>,
+    bucket_items: Vec<u32>,
+    corrections: Soa,
+    /// How many times the neighbour lists were built.
+    pub rebuilds: u64,
+}
+
+#[inline]
+fn bucket_of(c: [i64; 3], mask: usize) -> usize {
+    let h = (c[0].wrapping_mul(73_856_093)) ^ (c[1].wrapping_mul(19_349_663)) ^ (c[2].wrapping_mul(83_492_791));
+    (h as usize) & mask
+}
+
+impl SelfCollision {
+    /// Self-collision for `n` particles of diameter `diameter`, m.
+    pub fn new(n: usize, diameter: Real) -> Self {
+        Self {
+            diameter,
+            skin: SKIN_FRACTION * diameter,
+            corrections: Soa::zeros(n),
+            ..Default::default()
+        }
+    }
+
+    /// Number of neighbour pairs (both directions) in the current lists.
+    pub fn candidate_count(&self) -> usize {
+        self.list.len()
+    }
+
+    fn needs_rebuild(&self, p: &Soa) -> bool {
+        if self.reference.len() != p.len() {
+            return true;
+        }
+        let limit = (0.5 * self.skin) * (0.5 * self.skin);
+        (0..p.len()).into_par_iter().with_min_len(4096).any(|i| {
+            let dx = p.x[i] - self.reference.x[i];
+            let dy = p.y[i] - self.reference.y[i];
+            let dz = p.z[i] - self.reference.z[i];
+            dx * dx + dy * dy + dz * dz > limit
+        })
+    }
+
+    fn rebuild(&mut self, grid: &Grid, p: &Soa) {
+        self.rebuilds += 1;
+        let n = p.len();
+        let cell = self.diameter + self.skin;
+        let inv = 1.0 / cell;
+        self.cells.clear();
+        self.cells.extend((0..n).map(|i| {
+            [
+                (p.x[i] * inv).floor() as i64,
+                (p.y[i] * inv).floor() as i64,
+                (p.z[i] * inv).floor() as i64,
+            ]
+        }));
+        // Counting sort of particles into hash buckets, in particle order.
+        let buckets = (2 * n).next_power_of_two();
+        let mask = buckets - 1;
+        self.bucket_start.clear();
+        self.bucket_start.resize(buckets + 1, 0);
+        for c in &self.cells {
+            self.bucket_start[bucket_of(*c, mask) + 1] += 1;
+        }
+        for b in 0..buckets {
+            self.bucket_start[b + 1] += self.bucket_start[b];
+        }
+        self.bucket_items.clear();
+        self.bucket_items.resize(n, 0);
+        let mut fill = self.bucket_start.clone();
+        for (i, c) in self.cells.iter().enumerate() {
+            let b = bucket_of(*c, mask);
+            self.bucket_items[fill[b] as usize] = i as u32;
+            fill[b] += 1;
+        }
+        // Neighbour lists: everything within `cell` of each particle, in a fixed order.
+        let reach2 = cell * cell;
+        let (cells, bucket_start, bucket_items) = (&self.cells, &self.bucket_start, &self.bucket_items);
+        let per_particle: Vec<Vec<u32>> = (0..n)
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|i| {
+                let mut out = Vec::new();
+                let c = cells[i];
+                let pi = p.get(i);
+                for ox in -1..=1 {
+                    for oy in -1..=1 {
+                        for oz in -1..=1 {
+                            let q = [c[0] + ox, c[1] + oy, c[2] + oz];
+                            let b = bucket_of(q, mask);
+                            for &j in &bucket_items[bucket_start[b] as usize..bucket_start[b + 1] as usize] {
+                                let j = j as usize;
+                                if j == i || cells[j] != q {
+                                    continue;
+                                }
+                                if (p.get(j) - pi).length_squared() < reach2 {
+                                    out.push(j as u32);
+                                }
+                            }
+                        }
+                    }
+                }
+                out.sort_unstable();
+                out
+            })
+            .collect();
+        let _ = grid;
+        self.start.clear();
+        self.list.clear();
+        self.start.push(0);
+        for l in per_particle {
+            self.list.extend_from_slice(&l);
+            self.start.push(self.list.len() as u32);
+        }
+        self.reference.clone_from(p);
+    }
+
+    /// Pushes overlapping particles apart. `fixed[i]` marks grabbed particles, which do not
+    /// move. Returns the number of overlapping (ordered) pairs found.
+    pub fn solve(&mut self, grid: &Grid, p: &mut Soa, fixed: &[bool]) -> usize {
+        if self.needs_rebuild(p) {
+            self.rebuild(grid, p);
+        }
+        if self.list.is_empty() {
+            return 0;
+        }
+        let d = self.diameter;
+        let (start, list) = (&self.start, &self.list);
+        let pr = &*p;
+        let c = &mut self.corrections;
+        let hits: usize = c
+            .x
+            .par_iter_mut()
+            .zip(c.y.par_iter_mut())
+            .zip(c.z.par_iter_mut())
+            .enumerate()
+            .with_min_len(1024)
+            .map(|(i, ((cx, cy), cz))| {
+                let mut corr = Vec3::ZERO;
+                let mut hits = 0;
+                if !fixed[i] {
+                    let pi = pr.get(i);
+                    for &j in &list[start[i] as usize..start[i + 1] as usize] {
+                        let j = j as usize;
+                        let min = d.min(grid.rest_distance(i, j));
+                        let delta = pi - pr.get(j);
+                        let dist = delta.length();
+                        if dist < min && dist > 0.0 {
+                            hits += 1;
+                            let share = if fixed[j] { 1.0 } else { 0.5 };
+                            corr += delta * (share * (min - dist) / dist);
+                        }
+                    }
+                }
+                (*cx, *cy, *cz) = (corr.x, corr.y, corr.z);
+                hits
+            })
+            .sum();
+        if hits > 0 {
+            p.x.par_iter_mut().zip(&c.x).for_each(|(a, b)| *a += b);
+            p.y.par_iter_mut().zip(&c.y).for_each(|(a, b)| *a += b);
+            p.z.par_iter_mut().zip(&c.z).for_each(|(a, b)| *a += b);
+        }
+        hits
+    }
+}
