@@ -142,6 +142,23 @@ impl Grid {
         uv
     }
 
+    /// Smooth vertex normals for rendering and export: the area-weighted sum of the normals of
+    /// the triangles around each particle (see [`Grid::triangles`]), normalised.
+    pub fn vertex_normals(&self, p: &Soa) -> Vec<Vec3> {
+        let mut n = vec![Vec3::ZERO; self.len()];
+        for [a, b, c] in self.triangles() {
+            let (a, b, c) = (a as usize, b as usize, c as usize);
+            let w = (p.get(b) - p.get(a)).cross(p.get(c) - p.get(a));
+            n[a] += w;
+            n[b] += w;
+            n[c] += w;
+        }
+        for v in &mut n {
+            *v = v.normalize_or(Vec3::Y);
+        }
+        n
+    }
+
     /// Unit normal of particle `k`: the cross product of the central differences along z and x
     /// (one-sided at the border). On a regular grid this is the area-weighted normal of the
     /// surrounding cells, and it points +Y for the flat rest state.

@@ -41,6 +41,7 @@
 //! use wetcloth::{SimConfig, Simulation};
 //! let mut cfg = SimConfig::thesis_demo();
 //! cfg.cloth.resolution = [10, 10];
+//! cfg.grabs.clear();
 //! let mut sim = Simulation::new(cfg).unwrap();
 //! for _ in 0..100 {
 //!     sim.step().unwrap();
