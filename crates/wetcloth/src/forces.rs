@@ -119,8 +119,16 @@ mod tests {
         add_springs(
             &mut row,
             0,
-            RowRef { x: &a, y: &zero, z: &zero },
-            RowRef { x: &b, y: &by, z: &zero },
+            RowRef {
+                x: &a,
+                y: &zero,
+                z: &zero,
+            },
+            RowRef {
+                x: &b,
+                y: &by,
+                z: &zero,
+            },
             50.0,
             0.2,
         );
@@ -132,7 +140,10 @@ mod tests {
                 0.2,
             );
             let got = Vec3::new(fx[k], fy[k], fz[k]);
-            assert!((got - expect).length() <= 1e-12 * (1.0 + expect.length()), "{k}");
+            assert!(
+                (got - expect).length() <= 1e-12 * (1.0 + expect.length()),
+                "{k}"
+            );
         }
     }
 }

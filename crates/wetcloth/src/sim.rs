@@ -27,7 +27,6 @@ struct StepConsts<'a> {
     grid: &'a Grid,
     colliders: &'a [Collider],
     mass: Real,
-    dt: Real,
     gravity: Vec3,
     /// `damping * m / dt`: the damping force is `-damp * (x - x_prev)`.
     damp: Real,
@@ -37,6 +36,8 @@ struct StepConsts<'a> {
     /// `(P_b - P_a) S`, N: the pressure force is this times the unit normal.
     pressure_area: Real,
     radius: Real,
+    /// `dt^2 / m`, halved on the first step (see [`Simulation::step`]).
+    h: Real,
 }
 
 /// A wet cloth on its colliders, with trapped air and grabs.
@@ -251,6 +252,28 @@ impl Simulation {
         self.self_collision.as_ref().map_or(0, |s| s.rebuilds)
     }
 
+    /// Replaces the particle positions (m) at the current and the previous step, e.g. to start
+    /// from a draped or folded shape; the velocity is `(positions - previous) / dt`. Both must
+    /// have one entry per particle.
+    pub fn set_state(&mut self, positions: Soa, previous: Soa) -> Result<(), StepError> {
+        assert_eq!(
+            positions.len(),
+            self.grid.len(),
+            "one position per particle"
+        );
+        assert_eq!(
+            previous.len(),
+            self.grid.len(),
+            "one previous position per particle"
+        );
+        self.x = positions;
+        self.prev = previous;
+        if let Some(sc) = &mut self.self_collision {
+            *sc = SelfCollision::new(self.grid.len(), 2.0 * self.radius);
+        }
+        self.update_air_and_check()
+    }
+
     /// Resets to the state at t = 0 (the demo's button 3), keeping the air switch.
     pub fn reset(&mut self) -> Result<(), ConfigError> {
         let air = self.air_enabled;
@@ -271,6 +294,8 @@ impl Simulation {
     ///    the pressure force `(P_b - P_a) S N` (eq. 3.7, physical sign) with `P_b` from Boyle's
     ///    law on the current bubble volume (3.4-3.5);
     /// 3. integrate with position Verlet (eq. 3.1) and resolve contacts with the colliders:
+    ///    (the first step is the Taylor start `x1 = x0 + v0 dt + a dt^2 / 2`, with `v0 dt` given
+    ///    by `x0 - x_prev`, which makes the scheme exact for constant acceleration);
     ///    normal force and Coulomb friction (eq. 3.4-3.5), all in one pass over the rows;
     /// 4. move grabbed particles onto their targets and record the hand's force (3.2 step 3);
     /// 5. optional Provot strain limiting, then self-collision (3.1), then push anything those
@@ -303,7 +328,6 @@ impl Simulation {
             grid: &self.grid,
             colliders: &c.colliders,
             mass: self.mass,
-            dt,
             gravity: c.simulation.gravity,
             damp: c.cloth.damping * self.mass / dt,
             structural: c.cloth.structural_stiffness,
@@ -311,6 +335,7 @@ impl Simulation {
             rest: STENCIL.map(|n| self.grid.rest_length(n)),
             pressure_area,
             radius: self.radius,
+            h: dt * dt / self.mass * if self.steps == 0 { 0.5 } else { 1.0 },
         };
         let nx = self.grid.nx;
         let x = &self.x;
@@ -327,8 +352,16 @@ impl Simulation {
             .enumerate()
             .with_min_len(ROWS_PER_TASK)
             .for_each(|(j, (px, py, pz, fx, fy, fz, contact))| {
-                let mut prev = RowMut { x: px, y: py, z: pz };
-                let mut force = RowMut { x: fx, y: fy, z: fz };
+                let mut prev = RowMut {
+                    x: px,
+                    y: py,
+                    z: pz,
+                };
+                let mut force = RowMut {
+                    x: fx,
+                    y: fy,
+                    z: fz,
+                };
                 step_row(&consts, j, x, &mut prev, &mut force, contact);
             });
         std::mem::swap(&mut self.x, &mut self.prev);
@@ -504,7 +537,7 @@ fn step_row(
     }
 
     // Position Verlet (eq. 3.1) and contacts.
-    let h = c.dt * c.dt / c.mass;
+    let h = c.h;
     for i in 0..nx {
         let now = Vec3::new(here.x[i], here.y[i], here.z[i]);
         let before = Vec3::new(prev.x[i], prev.y[i], prev.z[i]);
