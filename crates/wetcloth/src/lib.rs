@@ -50,6 +50,7 @@
 //! ```
 
 pub mod air;
+pub mod bench;
 pub mod cloth;
 pub mod collider;
 pub mod contact;
