@@ -57,6 +57,7 @@ pub mod contact;
 pub mod error;
 pub mod forces;
 pub mod grab;
+mod kernels;
 pub mod math;
 pub mod metrics;
 pub mod params;

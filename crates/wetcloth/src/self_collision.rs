@@ -66,12 +66,32 @@ impl SelfCollision {
             return true;
         }
         let limit = (0.5 * self.skin) * (0.5 * self.skin);
-        (0..p.len()).into_par_iter().with_min_len(4096).any(|i| {
-            let dx = p.x[i] - self.reference.x[i];
-            let dy = p.y[i] - self.reference.y[i];
-            let dz = p.z[i] - self.reference.z[i];
-            dx * dx + dy * dy + dz * dz > limit
-        })
+        let r = &self.reference;
+        // Largest squared displacement of a chunk, as a branch-free loop that vectorises.
+        let moved = |range: std::ops::Range<usize>| {
+            let (x, y, z) = (
+                &p.x[range.clone()],
+                &p.y[range.clone()],
+                &p.z[range.clone()],
+            );
+            let (rx, ry, rz) = (&r.x[range.clone()], &r.y[range.clone()], &r.z[range]);
+            let mut worst: Real = 0.0;
+            for i in 0..x.len() {
+                let (dx, dy, dz) = (x[i] - rx[i], y[i] - ry[i], z[i] - rz[i]);
+                let d = dx * dx + dy * dy + dz * dz;
+                worst = if d > worst { d } else { worst };
+            }
+            worst
+        };
+        let n = p.len();
+        if n >= crate::sim::PARALLEL_MIN_PARTICLES {
+            (0..n.div_ceil(4096))
+                .into_par_iter()
+                .map(|c| moved(c * 4096..((c + 1) * 4096).min(n)))
+                .any(|d| d > limit)
+        } else {
+            moved(0..n) > limit
+        }
     }
 
     fn rebuild(&mut self, grid: &Grid, p: &Soa) {

@@ -5,8 +5,9 @@ use crate::cloth::{Grid, STENCIL};
 use crate::collider::Collider;
 use crate::contact;
 use crate::error::{ConfigError, StepError};
-use crate::forces::{RowMut, RowRef};
+use crate::forces::RowMut;
 use crate::grab::{Grab, GrabMotion};
+use crate::kernels::{self, PlaneContact, RowCheck, StepConsts};
 use crate::math::{Real, Soa, Vec3};
 use crate::metrics::FrameMetrics;
 use crate::params::SimConfig;
@@ -22,23 +23,9 @@ pub const BLOWUP_STRETCH: Real = 10.0;
 /// Results never depend on it (every particle's sum has a fixed order).
 const ROWS_PER_TASK: usize = 8;
 
-/// Constants of one step, shared by the row kernels.
-struct StepConsts<'a> {
-    grid: &'a Grid,
-    colliders: &'a [Collider],
-    mass: Real,
-    gravity: Vec3,
-    /// `damping * m / dt`: the damping force is `-damp * (x - x_prev)`.
-    damp: Real,
-    structural: Real,
-    shear: Real,
-    rest: [Real; 8],
-    /// `(P_b - P_a) S`, N: the pressure force is this times the unit normal.
-    pressure_area: Real,
-    radius: Real,
-    /// `dt^2 / m`, halved on the first step (see [`Simulation::step`]).
-    h: Real,
-}
+/// Below this many particles a step runs on the calling thread: handing a job to the thread
+/// pool and waiting for it costs microseconds, more than a small cloth's whole step.
+pub const PARALLEL_MIN_PARTICLES: usize = 16_384;
 
 /// A wet cloth on its colliders, with trapped air and grabs.
 ///
@@ -70,8 +57,9 @@ pub struct Simulation {
     saved_prev: Vec<Vec3>,
     self_collision: Option<SelfCollision>,
     scratch: Soa,
-    row_volume: Vec<Real>,
-    row_stretch: Vec<Real>,
+    row_checks: Vec<RowCheck>,
+    planes: Vec<PlaneContact>,
+    others: Vec<Collider>,
     volume: Real,
     steps: u64,
 }
@@ -116,8 +104,24 @@ impl Simulation {
             saved_prev: Vec::new(),
             self_collision,
             scratch: Soa::zeros(n),
-            row_volume: vec![0.0; grid.nz],
-            row_stretch: vec![0.0; grid.nz],
+            row_checks: vec![RowCheck::default(); grid.nz],
+            planes: config
+                .colliders
+                .iter()
+                .filter_map(|c| {
+                    c.as_plane().map(|(point, normal)| PlaneContact {
+                        normal,
+                        offset: normal.dot(point) + radius,
+                        friction: c.friction,
+                    })
+                })
+                .collect(),
+            others: config
+                .colliders
+                .iter()
+                .filter(|c| c.as_plane().is_none())
+                .copied()
+                .collect(),
             volume: 0.0,
             steps: 0,
             grid,
@@ -326,7 +330,8 @@ impl Simulation {
         };
         let consts = StepConsts {
             grid: &self.grid,
-            colliders: &c.colliders,
+            planes: &self.planes,
+            others: &self.others,
             mass: self.mass,
             gravity: c.simulation.gravity,
             damp: c.cloth.damping * self.mass / dt,
@@ -339,31 +344,47 @@ impl Simulation {
         };
         let nx = self.grid.nx;
         let x = &self.x;
-        (
-            self.prev.x.par_chunks_mut(nx),
-            self.prev.y.par_chunks_mut(nx),
-            self.prev.z.par_chunks_mut(nx),
-            self.force.x.par_chunks_mut(nx),
-            self.force.y.par_chunks_mut(nx),
-            self.force.z.par_chunks_mut(nx),
-            self.contact.par_chunks_mut(nx),
-        )
-            .into_par_iter()
-            .enumerate()
-            .with_min_len(ROWS_PER_TASK)
-            .for_each(|(j, (px, py, pz, fx, fy, fz, contact))| {
-                let mut prev = RowMut {
-                    x: px,
-                    y: py,
-                    z: pz,
-                };
-                let mut force = RowMut {
-                    x: fx,
-                    y: fy,
-                    z: fz,
-                };
-                step_row(&consts, j, x, &mut prev, &mut force, contact);
-            });
+        let row = |(j, (px, py, pz, fx, fy, fz, contact)): (usize, RowSlices<'_>)| {
+            let mut prev = RowMut {
+                x: px,
+                y: py,
+                z: pz,
+            };
+            let mut force = RowMut {
+                x: fx,
+                y: fy,
+                z: fz,
+            };
+            kernels::step_row(&consts, j, x, &mut prev, &mut force, contact);
+        };
+        let parallel = self.parallel();
+        let (p, f) = (&mut self.prev, &mut self.force);
+        if parallel {
+            (
+                p.x.par_chunks_mut(nx),
+                p.y.par_chunks_mut(nx),
+                p.z.par_chunks_mut(nx),
+                f.x.par_chunks_mut(nx),
+                f.y.par_chunks_mut(nx),
+                f.z.par_chunks_mut(nx),
+                self.contact.par_chunks_mut(nx),
+            )
+                .into_par_iter()
+                .enumerate()
+                .with_min_len(ROWS_PER_TASK)
+                .for_each(row);
+        } else {
+            p.x.chunks_mut(nx)
+                .zip(p.y.chunks_mut(nx))
+                .zip(p.z.chunks_mut(nx))
+                .zip(f.x.chunks_mut(nx))
+                .zip(f.y.chunks_mut(nx))
+                .zip(f.z.chunks_mut(nx))
+                .zip(self.contact.chunks_mut(nx))
+                .map(|((((((a, b), c), d), e), f), g)| (a, b, c, d, e, f, g))
+                .enumerate()
+                .for_each(row);
+        }
         std::mem::swap(&mut self.x, &mut self.prev);
 
         // 4. Grabs: cancel the particle's own motion, carry it to its target, and record the
@@ -426,45 +447,27 @@ impl Simulation {
     /// Recomputes the bubble volume of the current state and checks for non-finite positions
     /// and over-stretched structural springs, in one pass over the rows.
     fn update_air_and_check(&mut self) -> Result<(), StepError> {
-        let (grid, x, sticking) = (&self.grid, &self.x, self.sticking);
-        let offset = self.radius;
-        let (rx, rz) = (grid.dx * grid.dx, grid.dz * grid.dz);
-        self.row_volume
-            .par_iter_mut()
-            .zip(self.row_stretch.par_iter_mut())
-            .enumerate()
-            .with_min_len(ROWS_PER_TASK)
-            .for_each(|(j, (vol, stretch))| {
-                *vol = match sticking {
-                    Some(plane) if j + 1 < grid.nz => air::row_volume(grid, x, j, plane, offset),
-                    _ => 0.0,
-                };
-                // Largest squared length ratio of this row's structural springs (to the right
-                // and to the next row); NaN positions make it NaN.
-                let mut worst: Real = 0.0;
-                for i in 0..grid.nx {
-                    let k = grid.index(i, j);
-                    let p = x.get(k);
-                    if !p.is_finite() {
-                        worst = Real::NAN;
-                        break;
-                    }
-                    if i + 1 < grid.nx {
-                        worst = worst.max((x.get(k + 1) - p).length_squared() / rx);
-                    }
-                    if j + 1 < grid.nz {
-                        worst = worst.max((x.get(k + grid.nx) - p).length_squared() / rz);
-                    }
-                }
-                *stretch = worst;
-            });
+        let parallel = self.parallel();
+        let (grid, x, sticking, offset) = (&self.grid, &self.x, self.sticking, self.radius);
+        let check = |(j, out): (usize, &mut RowCheck)| {
+            *out = kernels::check_row(grid, x, j, sticking, offset);
+        };
+        if parallel {
+            self.row_checks
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(ROWS_PER_TASK)
+                .for_each(check);
+        } else {
+            self.row_checks.iter_mut().enumerate().for_each(check);
+        }
         let time = self.time();
         let mut worst: Real = 0.0;
-        for s in &self.row_stretch {
-            if s.is_nan() {
+        for r in &self.row_checks {
+            if !r.finite_probe.is_finite() || r.stretch2.is_nan() {
                 return Err(StepError::NonFinite { time });
             }
-            worst = worst.max(*s);
+            worst = worst.max(r.stretch2);
         }
         if worst > BLOWUP_STRETCH * BLOWUP_STRETCH {
             return Err(StepError::OverStretch {
@@ -473,82 +476,24 @@ impl Simulation {
                 limit: BLOWUP_STRETCH,
             });
         }
-        self.volume = self.row_volume.iter().sum();
+        self.volume = self.row_checks.iter().map(|r| r.volume).sum();
         Ok(())
     }
-}
 
-/// Steps one row of particles (phases 2-3): forces, Verlet, contacts. Reads the current
-/// positions of rows `j - 1 ..= j + 1`, and overwrites the row's previous positions with the
-/// new ones.
-#[inline]
-fn step_row(
-    c: &StepConsts<'_>,
-    j: usize,
-    x: &Soa,
-    prev: &mut RowMut<'_>,
-    force: &mut RowMut<'_>,
-    contact: &mut [bool],
-) {
-    let grid = c.grid;
-    let nx = grid.nx;
-    let row = |r: usize| RowRef {
-        x: &x.x[r * nx..(r + 1) * nx],
-        y: &x.y[r * nx..(r + 1) * nx],
-        z: &x.z[r * nx..(r + 1) * nx],
-    };
-    let here = row(j);
-    let weight = c.gravity * c.mass;
-
-    // Gravity and velocity damping.
-    for i in 0..nx {
-        force.x[i] = weight.x - c.damp * (here.x[i] - prev.x[i]);
-        force.y[i] = weight.y - c.damp * (here.y[i] - prev.y[i]);
-        force.z[i] = weight.z - c.damp * (here.z[i] - prev.z[i]);
-    }
-
-    // Springs, one stencil direction at a time over the run of the row that has that neighbour.
-    for (n, &rest) in STENCIL.iter().zip(&c.rest) {
-        let jj = j as isize + n.dj;
-        if jj < 0 || jj >= grid.nz as isize {
-            continue;
-        }
-        let i0 = (-n.di).max(0) as usize;
-        let len = nx - n.di.unsigned_abs();
-        let k = if n.structural { c.structural } else { c.shear };
-        let a = here.slice(i0, len);
-        let b = row(jj as usize).slice((i0 as isize + n.di) as usize, len);
-        crate::forces::add_springs(force, i0, a, b, k, rest);
-    }
-
-    // Pressure force along the cloth normal.
-    if c.pressure_area != 0.0 {
-        for i in 0..nx {
-            let f = crate::forces::pressure_force(
-                c.pressure_area,
-                0.0,
-                1.0,
-                grid.normal(x, grid.index(i, j)),
-            );
-            force.x[i] += f.x;
-            force.y[i] += f.y;
-            force.z[i] += f.z;
-        }
-    }
-
-    // Position Verlet (eq. 3.1) and contacts.
-    let h = c.h;
-    for i in 0..nx {
-        let now = Vec3::new(here.x[i], here.y[i], here.z[i]);
-        let before = Vec3::new(prev.x[i], prev.y[i], prev.z[i]);
-        let f = Vec3::new(force.x[i], force.y[i], force.z[i]);
-        // Written as x + (x - x_prev) + F dt^2 / m: the step is added to x, not to 2x, which
-        // halves the round-off for slow particles.
-        let next = now + (now - before) + f * h;
-        let (next, hit) = contact::resolve(c.colliders, now, next, c.radius);
-        prev.x[i] = next.x;
-        prev.y[i] = next.y;
-        prev.z[i] = next.z;
-        contact[i] = hit;
+    /// Whether the row passes go to the thread pool (results are identical either way).
+    fn parallel(&self) -> bool {
+        self.grid.len() >= PARALLEL_MIN_PARTICLES && rayon::current_num_threads() > 1
     }
 }
+
+/// One row's slices handed to the step kernel: previous positions (x, y, z), forces (x, y, z)
+/// and contact flags.
+type RowSlices<'a> = (
+    &'a mut [Real],
+    &'a mut [Real],
+    &'a mut [Real],
+    &'a mut [Real],
+    &'a mut [Real],
+    &'a mut [Real],
+    &'a mut [bool],
+);
