@@ -240,7 +240,7 @@ pub(crate) fn check_row(
     let has_next = j + 1 < grid.nz;
     let b = row(x, nx, if has_next { j + 1 } else { j });
 
-    // Structural stretch to the right and down, and the finiteness probe (x - x is NaN exactly
+    // Structural stretch to the right and down, and the finiteness probe (x * 0 is NaN exactly
     // when x is NaN or infinite).
     let (rx2, rz2) = (1.0 / (grid.dx * grid.dx), 1.0 / (grid.dz * grid.dz));
     let mut worst: Real = 0.0;
@@ -255,7 +255,7 @@ pub(crate) fn check_row(
         worst = if s > worst { s } else { worst };
     }
     for i in 0..nx {
-        probe += (a.x[i] - a.x[i]) + (a.y[i] - a.y[i]) + (a.z[i] - a.z[i]);
+        probe += (a.x[i] + a.y[i] + a.z[i]) * 0.0;
     }
     if has_next {
         for i in 0..nx {
