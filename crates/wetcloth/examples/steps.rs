@@ -1,4 +1,5 @@
-//! Times the benchmark workload: `steps SIDE SECONDS`.
+//! Times the benchmark workload: `steps SIDE SECONDS` (timed), or `steps SIDE -N` (exactly N
+//! steps, for instruction counts with `perf stat`).
 use wetcloth::{Simulation, bench::thesis_workload};
 
 fn main() {
@@ -11,11 +12,18 @@ fn main() {
     }
     let t0 = std::time::Instant::now();
     let mut n = 0u64;
-    while t0.elapsed().as_secs_f64() < secs {
-        for _ in 0..100 {
+    if secs < 0.0 {
+        for _ in 0..(-secs) as u64 {
             sim.step().unwrap();
         }
-        n += 100;
+        n = (-secs) as u64;
+    } else {
+        while t0.elapsed().as_secs_f64() < secs {
+            for _ in 0..100 {
+                sim.step().unwrap();
+            }
+            n += 100;
+        }
     }
     let s = n as f64 / t0.elapsed().as_secs_f64();
     println!(

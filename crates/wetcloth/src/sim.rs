@@ -1,13 +1,13 @@
 //! The simulation and its step (thesis 3.2, fig. 3.4).
 
 use crate::air;
-use crate::cloth::{Grid, STENCIL};
+use crate::cloth::Grid;
 use crate::collider::Collider;
 use crate::contact;
 use crate::error::{ConfigError, StepError};
 use crate::forces::RowMut;
 use crate::grab::{Grab, GrabMotion};
-use crate::kernels::{self, PlaneContact, RowCheck, StepConsts};
+use crate::kernels::{self, PlaneContact, RowCheck, StepConsts, StepScratch};
 use crate::math::{Real, Soa, Vec3};
 use crate::metrics::FrameMetrics;
 use crate::params::SimConfig;
@@ -58,6 +58,7 @@ pub struct Simulation {
     self_collision: Option<SelfCollision>,
     scratch: Soa,
     row_checks: Vec<RowCheck>,
+    step_scratch: StepScratch,
     planes: Vec<PlaneContact>,
     others: Vec<Collider>,
     volume: Real,
@@ -105,6 +106,7 @@ impl Simulation {
             self_collision,
             scratch: Soa::zeros(n),
             row_checks: vec![RowCheck::default(); grid.nz],
+            step_scratch: StepScratch::new(grid.nx),
             planes: config
                 .colliders
                 .iter()
@@ -337,53 +339,71 @@ impl Simulation {
             damp: c.cloth.damping * self.mass / dt,
             structural: c.cloth.structural_stiffness,
             shear: c.cloth.shear_stiffness,
-            rest: STENCIL.map(|n| self.grid.rest_length(n)),
+            rest_x: self.grid.dx,
+            rest_z: self.grid.dz,
+            rest_diag: self.grid.dx.hypot(self.grid.dz),
             pressure_area,
             radius: self.radius,
             h: dt * dt / self.mass * if self.steps == 0 { 0.5 } else { 1.0 },
         };
         let nx = self.grid.nx;
         let x = &self.x;
-        let row = |(j, (px, py, pz, fx, fy, fz, contact)): (usize, RowSlices<'_>)| {
-            let mut prev = RowMut {
-                x: px,
-                y: py,
-                z: pz,
-            };
-            let mut force = RowMut {
-                x: fx,
-                y: fy,
-                z: fz,
-            };
-            kernels::step_row(&consts, j, x, &mut prev, &mut force, contact);
-        };
         let parallel = self.parallel();
         let (p, f) = (&mut self.prev, &mut self.force);
         if parallel {
+            // Blocks of rows, one task each; the split never changes the result.
+            let block = nx * ROWS_PER_TASK;
             (
-                p.x.par_chunks_mut(nx),
-                p.y.par_chunks_mut(nx),
-                p.z.par_chunks_mut(nx),
-                f.x.par_chunks_mut(nx),
-                f.y.par_chunks_mut(nx),
-                f.z.par_chunks_mut(nx),
-                self.contact.par_chunks_mut(nx),
+                p.x.par_chunks_mut(block),
+                p.y.par_chunks_mut(block),
+                p.z.par_chunks_mut(block),
+                f.x.par_chunks_mut(block),
+                f.y.par_chunks_mut(block),
+                f.z.par_chunks_mut(block),
+                self.contact.par_chunks_mut(block),
             )
                 .into_par_iter()
                 .enumerate()
-                .with_min_len(ROWS_PER_TASK)
-                .for_each(row);
+                .for_each(|(b, (px, py, pz, fx, fy, fz, contact))| {
+                    THREAD_SCRATCH.with_borrow_mut(|scratch| {
+                        if !scratch.fits(nx) {
+                            *scratch = StepScratch::new(nx);
+                        }
+                        let mut prev = RowMut {
+                            x: px,
+                            y: py,
+                            z: pz,
+                        };
+                        let mut force = RowMut {
+                            x: fx,
+                            y: fy,
+                            z: fz,
+                        };
+                        let j0 = b * ROWS_PER_TASK;
+                        kernels::step_rows(&consts, j0, x, &mut prev, &mut force, contact, scratch);
+                    });
+                });
         } else {
-            p.x.chunks_mut(nx)
-                .zip(p.y.chunks_mut(nx))
-                .zip(p.z.chunks_mut(nx))
-                .zip(f.x.chunks_mut(nx))
-                .zip(f.y.chunks_mut(nx))
-                .zip(f.z.chunks_mut(nx))
-                .zip(self.contact.chunks_mut(nx))
-                .map(|((((((a, b), c), d), e), f), g)| (a, b, c, d, e, f, g))
-                .enumerate()
-                .for_each(row);
+            let mut prev = RowMut {
+                x: &mut p.x,
+                y: &mut p.y,
+                z: &mut p.z,
+            };
+            let mut force = RowMut {
+                x: &mut f.x,
+                y: &mut f.y,
+                z: &mut f.z,
+            };
+            let scratch = &mut self.step_scratch;
+            kernels::step_rows(
+                &consts,
+                0,
+                x,
+                &mut prev,
+                &mut force,
+                &mut self.contact,
+                scratch,
+            );
         }
         std::mem::swap(&mut self.x, &mut self.prev);
 
@@ -486,14 +506,8 @@ impl Simulation {
     }
 }
 
-/// One row's slices handed to the step kernel: previous positions (x, y, z), forces (x, y, z)
-/// and contact flags.
-type RowSlices<'a> = (
-    &'a mut [Real],
-    &'a mut [Real],
-    &'a mut [Real],
-    &'a mut [Real],
-    &'a mut [Real],
-    &'a mut [Real],
-    &'a mut [bool],
-);
+thread_local! {
+    /// Spring scratch of a pool thread, sized on first use (no allocation in later steps).
+    static THREAD_SCRATCH: std::cell::RefCell<StepScratch> =
+        std::cell::RefCell::new(StepScratch::default());
+}
