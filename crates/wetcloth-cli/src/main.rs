@@ -1,0 +1,3 @@
+//! The `wetcloth` command line (placeholder until `run` lands).
+
+fn main() {}

@@ -1,0 +1,1 @@
+//! Writers for wetcloth runs (placeholder until the writers land).
