@@ -355,3 +355,26 @@ fn bad_input_exits_2_with_a_located_message() {
     let o = wetcloth(&["walk"], &[]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// The README's first command: no scene runs the thesis demo into out/thesis-demo/. This is the
+/// one full-size run of the suite (2500 particles, 3 s simulated, a few seconds of wall time).
+#[test]
+fn without_a_scene_the_thesis_demo_runs_into_out_thesis_demo() {
+    let dir = scratch("default-scene");
+    let o = Command::new(BIN)
+        .args(["run", "--quiet"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.join("out/thesis-demo");
+    assert_eq!(frame_files(&out).len(), 181);
+    let resolved = wetcloth_scene::load(out.join("scene.toml")).unwrap();
+    assert_eq!(resolved.name, "thesis-demo");
+    assert_eq!(resolved.config, wetcloth::SimConfig::thesis_demo());
+    let rows = fs::read_to_string(out.join("metrics.csv"))
+        .unwrap()
+        .lines()
+        .count();
+    assert_eq!(rows, 1 + 181);
+}

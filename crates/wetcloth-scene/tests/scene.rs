@@ -420,3 +420,20 @@ fn every_scene_key_is_written_by_the_resolved_scene() {
         );
     }
 }
+
+#[test]
+fn the_shipped_scenes_parse_and_round_trip() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let Ok(entries) = std::fs::read_dir(&dir) else {
+        return;
+    };
+    for entry in entries {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let scene = wetcloth_scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            let back = parse(&scene.to_toml(), Path::new("resolved.toml")).unwrap();
+            assert_eq!(back.config, scene.config, "{}", path.display());
+            assert_eq!(back.name, scene.name);
+        }
+    }
+}
