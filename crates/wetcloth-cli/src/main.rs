@@ -14,7 +14,7 @@ use std::process::ExitCode;
 /// Wet cloth that sticks: a simulator of wet cloth and the air trapped under it
 /// (W. Yamada, 2012).
 #[derive(Parser, Debug)]
-#[command(name = "wetcloth", version, about, long_about = None)]
+#[command(name = "wetcloth", version)]
 struct Cli {
     /// Worker threads for the simulation (default: all cores, or RAYON_NUM_THREADS). Results do
     /// not depend on it.

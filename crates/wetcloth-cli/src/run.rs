@@ -23,11 +23,12 @@ use wetcloth_scene::Scene;
 #[derive(Args, Debug)]
 pub struct RunArgs {
     /// Scene file (TOML). Without one, the built-in thesis demo runs: a 30 cm satin cloth,
-    /// 50 x 50 particles, pinched at its centre and lifted 5 cm with the air force on.
+    /// 50 x 50 particles, stuck to a table, pinched at its centre and lifted with the air force
+    /// on.
     pub scene: Option<PathBuf>,
 
-    /// Output directory [default: out/<scene name>]. Frame files of an earlier run there are
-    /// removed first.
+    /// Output directory; default out/NAME, NAME being the scene's name. Frame files of an
+    /// earlier run there are removed first.
     #[arg(long, short, value_name = "DIR")]
     pub out: Option<PathBuf>,
 }
