@@ -223,7 +223,8 @@ fn print_summary(scene: &Scene, sim: &Simulation, dir: &Path, frames: u64, wall:
     );
     println!("  final metrics:");
     for ((name, value), unit) in COLUMNS.iter().zip(sim.metrics().values()).zip(UNITS) {
-        println!("    {name:<17} {} {unit}", human(value));
+        let line = format!("    {name:<17} {} {unit}", human(value));
+        println!("{}", line.trim_end());
     }
 }
 

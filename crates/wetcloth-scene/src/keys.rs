@@ -120,8 +120,9 @@ pub struct Unknown {
     pub valid: &'static [&'static str],
 }
 
-/// The closest of `valid` to `key` (Jaro-Winkler similarity at least 0.8), or the full path of a
-/// key with exactly that name at another place (`mass` at the top level -> `cloth.mass`).
+/// The closest of `valid` to `key` (Jaro-Winkler similarity at least 0.8), or a valid key that
+/// contains it, or the full path of a key with exactly that name at another place (`mass` at the
+/// top level -> `cloth.mass`).
 fn suggest(key: &str, valid: &[&str]) -> Option<String> {
     let best = valid
         .iter()
@@ -129,6 +130,12 @@ fn suggest(key: &str, valid: &[&str]) -> Option<String> {
         .max_by(|a, b| a.0.total_cmp(&b.0));
     if let Some((score, v)) = best
         && score >= 0.8
+    {
+        return Some(v.to_string());
+    }
+    // A part of a longer key (`stiffness` -> `structural_stiffness`).
+    if key.len() >= 4
+        && let Some(v) = valid.iter().find(|v| v.contains(key))
     {
         return Some(v.to_string());
     }

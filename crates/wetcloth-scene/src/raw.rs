@@ -266,7 +266,11 @@ fn convert(
                     at: cx.at(i.span()),
                     key: "simulation.integrator".into(),
                     value: format!("{:?}", i.get_ref()),
-                    message: format!("unknown integrator: allowed {}", allowed.join(", ")),
+                    message: format!(
+                        "unknown integrator{}: allowed {}",
+                        did_you_mean(i.get_ref(), &Integrator::ALL.map(|i| i.name())),
+                        allowed.join(", ")
+                    ),
                 }
             })?;
         }
@@ -334,6 +338,17 @@ fn convert(
     ))
 }
 
+/// ` (did you mean "x"?)` for the closest of `names` to `value`, or nothing.
+fn did_you_mean(value: &str, names: &[&str]) -> String {
+    names
+        .iter()
+        .map(|n| (strsim::jaro_winkler(value, n), *n))
+        .filter(|(score, _)| *score >= 0.7)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, n)| format!(" (did you mean \"{n}\"?)"))
+        .unwrap_or_default()
+}
+
 fn set<T>(field: &mut T, value: Option<T>) {
     if let Some(v) = value {
         *field = v;
@@ -392,7 +407,8 @@ fn collider(
                 key: key("shape"),
                 value: format!("{shape_name:?}"),
                 message: format!(
-                    "unknown collider shape: allowed {}",
+                    "unknown collider shape{}: allowed {}",
+                    did_you_mean(shape_name, &SHAPES),
                     SHAPES.map(|s| format!("\"{s}\"")).join(", ")
                 ),
             });

@@ -165,6 +165,8 @@ fn unknown_keys_are_refused_with_the_closest_key_suggested() {
     // A key at the wrong level points to where it belongs.
     let (_, msg) = err("mass = 3\n");
     assert_contains(&msg, &["scene.toml:1:1:", "did you mean `cloth.mass`?"]);
+    let (_, msg) = err("[cloth]\nstiffness = 3\n");
+    assert_contains(&msg, &["did you mean `structural_stiffness`?"]);
     // In arrays of tables and inline tables too, and the first in the file is reported.
     let (_, msg) = err(&format!("{PLANE}frction = 1\n[air]\nenabld = true\n"));
     assert_contains(
@@ -282,6 +284,8 @@ fn bad_names_shapes_and_integrators_are_refused() {
             "\"plane\", \"sphere\", \"box\"",
         ],
     );
+    let (_, msg) = err("[[collider]]\nshape = \"plain\"\n");
+    assert_contains(&msg, &["(did you mean \"plane\"?)"]);
     let (_, msg) = err("[[collider]]\nshape = \"sphere\"\nnormal = [0, 1, 0]\nradius = 1\n");
     assert_contains(
         &msg,
