@@ -249,10 +249,20 @@ fn a_blow_up_exits_1_and_keeps_complete_frames_and_metrics() {
 #[test]
 fn outputs_are_byte_identical_whatever_the_thread_count() {
     let dir = scratch("determinism");
+    // Large enough for the core to use its thread pool (128 x 128 particles), short enough to
+    // stay fast: soft springs keep the default step stable, and the grab pulls from t = 0.
+    let n = 128;
+    assert!(n * n >= wetcloth::sim::PARALLEL_MIN_PARTICLES);
     let scene = write_scene(
         &dir,
-        "pinch.toml",
-        &PINCH.replace("resolution = [8, 8]", "resolution = [16, 16]"),
+        "big.toml",
+        &format!(
+            "[simulation]\nduration = 0.02\nframe_rate = 100\n\
+             [cloth]\nresolution = [{n}, {n}]\nstructural_stiffness = 50.0\n\
+             shear_stiffness = 12.5\ndamping = 2.0\n\
+             [[grab]]\nparticle = [64, 64]\n\
+             keys = [{{ time = 0.0, offset = [0, 0, 0] }}, {{ time = 0.02, offset = [0, 0.002, 0] }}]\n"
+        ),
     );
     for (threads, name) in [("1", "t1"), ("2", "t2")] {
         let out = dir.join(name);
@@ -286,7 +296,17 @@ fn outputs_are_byte_identical_whatever_the_thread_count() {
             .iter()
             .map(|f| Path::new("frames").join(f)),
     );
-    assert_eq!(files.len(), 3 + 11);
+    assert_eq!(files.len(), 3 + 3);
+    // Something happened: the grab pulled.
+    let csv = fs::read_to_string(dir.join("t1/metrics.csv")).unwrap();
+    let last: Vec<f64> = csv
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert!(last[8] > 0.0, "grab force in {csv}");
     for other in ["t2", "t3"] {
         assert_eq!(frame_files(&dir.join("t1")), frame_files(&dir.join(other)));
         for f in &files {
