@@ -120,7 +120,11 @@ fn a_run_writes_frames_metrics_the_resolved_scene_and_run_json() {
         // Frame k is the state at k / 40 s, up to the round-off of the step's time.
         assert!((cols[1] - k as f64 / 40.0).abs() < 1e-12, "{line}");
     }
-    assert!(lines[1].starts_with("0,0,"));
+    assert!(
+        lines[1].starts_with("0,0.0,"),
+        "frame 0 at t = 0: {}",
+        lines[1]
+    );
 
     let frames = frame_files(&out);
     let expected: Vec<String> = (0..11).map(|k| format!("frame_{k:04}.obj")).collect();

@@ -38,7 +38,7 @@ impl<W: Write> MetricsCsv<W> {
         let mut line = frame.to_string();
         for v in m.values() {
             line.push(',');
-            line.push_str(&v.to_string());
+            line.push_str(&crate::number(v));
         }
         line.push('\n');
         self.w.write_all(line.as_bytes())?;

@@ -8,8 +8,9 @@
 //! - [`RunInfo`] and [`write_run_json`]: `run.json`, what a renderer needs to know about the
 //!   run (the cloth's layout, the colliders, the grabbed particles, the frame count).
 //!
-//! Every number is written with Rust's `{}` formatting of `f64`, the shortest text that parses
-//! back to the same value: nothing is rounded.
+//! Every number is written by [`number`]: the shortest text that parses back to the same `f64`
+//! (nothing is rounded), in scientific notation when very small or very large so that
+//! `1e-20` does not become twenty zeros.
 
 mod csv;
 mod obj;
@@ -18,6 +19,12 @@ mod run_json;
 pub use csv::{CSV_HEADER, MetricsCsv, csv_header};
 pub use obj::write_obj;
 pub use run_json::{ColliderInfo, RunInfo, write_run_json};
+
+/// `v` as the shortest decimal text that parses back to the same value (Rust's `{:?}`
+/// formatting of `f64`: `0.1`, `101325.0`, `1.5e-20`).
+pub fn number(v: f64) -> String {
+    format!("{v:?}")
+}
 
 /// Name of the OBJ file of frame `frame`: `frame_NNNN.obj`, zero-padded to 4 digits (more when
 /// the frame number needs them).

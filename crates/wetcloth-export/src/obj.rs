@@ -43,13 +43,13 @@ pub fn write_obj(
     writeln!(w, "o cloth")?;
     for k in 0..n {
         let p = positions.get(k);
-        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        writeln!(w, "v {:?} {:?} {:?}", p.x, p.y, p.z)?;
     }
     for [u, v] in uvs {
-        writeln!(w, "vt {u} {v}")?;
+        writeln!(w, "vt {u:?} {v:?}")?;
     }
     for nrm in normals {
-        writeln!(w, "vn {} {} {}", nrm.x, nrm.y, nrm.z)?;
+        writeln!(w, "vn {:?} {:?} {:?}", nrm.x, nrm.y, nrm.z)?;
     }
     for [a, b, c] in grid.triangles() {
         let (a, b, c) = (a + 1, b + 1, c + 1);
