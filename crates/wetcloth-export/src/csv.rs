@@ -83,7 +83,7 @@ mod tests {
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(
             lines[1],
-            "7,0.30000000000000004,0.00000000000000000001,101325,0,-0.5,1,0.3333333333333333,2.5"
+            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5"
         );
         let parsed: Vec<f64> = lines[1].split(',').map(|v| v.parse().unwrap()).collect();
         assert_eq!(parsed[1..], m.values());

@@ -83,7 +83,7 @@ mod tests {
         );
         assert!(text.contains("v -0.5 0.30000000000000004 -0.5\n"));
         assert!(text.contains("v 0.3333333333333333 0.30000000000000004 0.5\n"));
-        assert!(text.contains("vt 1 1\n"));
+        assert!(text.contains("vt 1.0 1.0\n"));
         assert!(text.contains("f 1/1/1 4/4/4 2/2/2\n"));
         let short = write_obj(&mut Vec::new(), &grid, &p, &[], &grid.uvs());
         assert_eq!(short.unwrap_err().kind(), io::ErrorKind::InvalidInput);
