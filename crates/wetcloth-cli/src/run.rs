@@ -124,7 +124,9 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
     for k in 1..=last {
         let target = frame_step(k, rate, dt);
         while sim.step_count() < target {
-            if let Err(error) = sim.step() {
+            // In chunks, so the progress bar moves during long frames.
+            let chunk = (target - sim.step_count()).min(2048);
+            if let Err(error) = sim.advance(chunk) {
                 progress.abandon();
                 return Err(CliError::BlowUp {
                     error,
@@ -132,9 +134,7 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
                     dir,
                 });
             }
-            if sim.step_count() % 512 == 0 {
-                progress.set_position(sim.step_count());
-            }
+            progress.set_position(sim.step_count());
         }
         progress.set_position(sim.step_count());
         progress.set_message(format!("frame {k}/{last}"));
