@@ -18,6 +18,9 @@ pub enum CliError {
         /// The output directory.
         dir: PathBuf,
     },
+    /// The run could not be set up (threads, an invalid built-in configuration). Exit code 1.
+    #[error("{0}")]
+    Setup(String),
     /// An output could not be written. Exit code 1.
     #[error("cannot write {}: {source}", path.display())]
     Output {
@@ -34,7 +37,7 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Scene(_) => 2,
-            CliError::BlowUp { .. } | CliError::Output { .. } => 1,
+            CliError::BlowUp { .. } | CliError::Output { .. } | CliError::Setup(_) => 1,
         }
     }
 

@@ -5,6 +5,7 @@
 //! 0 on success, 2 for bad input (arguments, scene files), 1 when a run fails (the simulation
 //! blows up, or its outputs cannot be written).
 
+mod bench;
 mod error;
 mod run;
 
@@ -16,11 +17,6 @@ use std::process::ExitCode;
 #[derive(Parser, Debug)]
 #[command(name = "wetcloth", version)]
 struct Cli {
-    /// Worker threads for the simulation (default: all cores, or RAYON_NUM_THREADS). Results do
-    /// not depend on it.
-    #[arg(long, global = true, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
-    threads: Option<u32>,
-
     /// No progress bar and no summary; errors and warnings still go to stderr.
     #[arg(long, short, global = true)]
     quiet: bool,
@@ -33,19 +29,25 @@ struct Cli {
 enum Command {
     /// Run a scene and write its frames (OBJ), metrics.csv, the resolved scene.toml and run.json.
     Run(run::RunArgs),
+    /// Measure simulation speed on the thesis workload (table 4.2): steps/s, particle-steps/s
+    /// and real-time factor per cloth size and thread count.
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    if let Some(n) = cli.threads
+    if let Command::Run(run::RunArgs {
+        threads: Some(n), ..
+    }) = &cli.command
         && let Err(e) = rayon::ThreadPoolBuilder::new()
-            .num_threads(n as usize)
+            .num_threads(*n as usize)
             .build_global()
     {
         eprintln!("wetcloth: warning: cannot set up {n} threads: {e}");
     }
     let result = match &cli.command {
         Command::Run(args) => run::run(args, cli.quiet),
+        Command::Bench(args) => bench::bench(args, cli.quiet),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -31,6 +31,11 @@ pub struct RunArgs {
     /// earlier run there are removed first.
     #[arg(long, short, value_name = "DIR")]
     pub out: Option<PathBuf>,
+
+    /// Worker threads for the simulation (default: all cores, or RAYON_NUM_THREADS). Results do
+    /// not depend on it.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub threads: Option<u32>,
 }
 
 /// Units of the metrics columns, for the summary.
