@@ -1,5 +1,5 @@
 //! Strain limiting after Provot (1995), "Deformation constraints in a mass-spring model to
-//! describe rigid cloth behavior" (the thesis' reference [2]).
+//! describe rigid cloth behavior" (the thesis' reference \[2\]).
 //!
 //! After the step, every structural or shear spring longer than `(1 + limit)` times its rest
 //! length is shortened back to that length by moving its two ends towards each other (a
