@@ -55,6 +55,7 @@ pub mod cloth;
 pub mod collider;
 pub mod contact;
 pub mod error;
+mod exec;
 pub mod forces;
 pub mod grab;
 mod kernels;

@@ -23,15 +23,7 @@ pub const BLOWUP_STRETCH: Real = 10.0;
 /// particle's sum has a fixed order).
 const MIN_ROWS_PER_TASK: usize = 4;
 
-/// Below this many particles, a step called from outside the thread pool runs on the calling
-/// thread: handing a job to the pool from outside and waiting for it costs microseconds, more
-/// than a small cloth's whole step. [`Simulation::advance`] steps inside the pool, where
-/// splitting a step costs tens of nanoseconds, and parallelises from
-/// [`PARALLEL_MIN_PARTICLES_IN_POOL`] on.
-pub const PARALLEL_MIN_PARTICLES: usize = 16_384;
-
-/// Below this many particles even a step inside the thread pool runs on one thread.
-pub const PARALLEL_MIN_PARTICLES_IN_POOL: usize = 1_024;
+pub use crate::exec::{PARALLEL_MIN_PARTICLES, PARALLEL_MIN_PARTICLES_IN_POOL};
 
 /// A wet cloth on its colliders, with trapped air and grabs.
 ///
@@ -452,18 +444,13 @@ impl Simulation {
         }
         if corrected && !self.config.colliders.is_empty() {
             let (colliders, r, fixed) = (&self.config.colliders, self.radius, &self.fixed);
-            let p = &mut self.x;
-            p.x.par_iter_mut()
-                .zip(p.y.par_iter_mut())
-                .zip(p.z.par_iter_mut())
-                .enumerate()
-                .with_min_len(1024)
-                .for_each(|(k, ((x, y), z))| {
-                    if !fixed[k] {
-                        let q = contact::project(colliders, Vec3::new(*x, *y, *z), r);
-                        (*x, *y, *z) = (q.x, q.y, q.z);
-                    }
-                });
+            crate::exec::map_in_place(&mut self.x, |k, p| {
+                if fixed[k] {
+                    p
+                } else {
+                    contact::project(colliders, p, r)
+                }
+            });
         }
 
         self.steps += 1;
@@ -510,13 +497,7 @@ impl Simulation {
 
     /// Whether the row passes go to the thread pool (results are identical either way).
     fn parallel(&self) -> bool {
-        let inside = rayon::current_thread_index().is_some();
-        let min = if inside {
-            PARALLEL_MIN_PARTICLES_IN_POOL
-        } else {
-            PARALLEL_MIN_PARTICLES
-        };
-        self.grid.len() >= min && rayon::current_num_threads() > 1
+        crate::exec::use_pool(self.grid.len())
     }
 
     /// Rows per parallel task: two tasks per thread (so a briefly descheduled thread does not
