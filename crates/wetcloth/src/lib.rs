@@ -72,5 +72,5 @@ pub use error::{ConfigError, StepError};
 pub use grab::{Grab, GrabKey, GrabMotion, GrabSpec};
 pub use math::{Real, Soa, Vec3};
 pub use metrics::FrameMetrics;
-pub use params::{AirParams, ClothParams, Integrator, SimConfig, SimulationParams};
+pub use params::{AirParams, ClothParams, Integrator, PressureSolve, SimConfig, SimulationParams};
 pub use sim::Simulation;

@@ -10,7 +10,7 @@ use crate::grab::{Grab, GrabMotion};
 use crate::kernels::{self, PlaneContact, RowCheck, StepConsts, StepScratch};
 use crate::math::{Real, Soa, Vec3};
 use crate::metrics::FrameMetrics;
-use crate::params::SimConfig;
+use crate::params::{PressureSolve, SimConfig};
 use crate::self_collision::SelfCollision;
 use crate::strain;
 use rayon::prelude::*;
@@ -56,10 +56,18 @@ pub struct Simulation {
     self_collision: Option<SelfCollision>,
     scratch: Soa,
     row_checks: Vec<RowCheck>,
+    /// Trapped air v0 now (m^3 at atmospheric pressure): the scene's value, changed by leaks.
+    trapped_air: Real,
+    /// Border particles in order around the cloth (for the leak's open length).
+    border: Vec<u32>,
     step_scratch: StepScratch,
     planes: Vec<PlaneContact>,
     others: Vec<Collider>,
     volume: Real,
+    /// Bubble volume one step earlier, m^3 (for the implicit pressure's prediction).
+    prev_volume: Real,
+    /// The bubble pressure the last step's pressure force used, Pa.
+    applied_pressure: Real,
     steps: u64,
 }
 
@@ -104,6 +112,8 @@ impl Simulation {
             self_collision,
             scratch: Soa::zeros(n),
             row_checks: vec![RowCheck::default(); grid.nz],
+            trapped_air: config.air.trapped_air,
+            border: border_loop(&grid),
             step_scratch: StepScratch::new(grid.nx),
             planes: config
                 .colliders
@@ -123,6 +133,8 @@ impl Simulation {
                 .copied()
                 .collect(),
             volume: 0.0,
+            prev_volume: 0.0,
+            applied_pressure: 0.0,
             steps: 0,
             grid,
             config,
@@ -132,6 +144,8 @@ impl Simulation {
                 key: "cloth.position".into(),
                 message: e.to_string(),
             })?;
+        sim.prev_volume = sim.volume;
+        sim.applied_pressure = sim.air_pressure();
         Ok(sim)
     }
 
@@ -197,13 +211,33 @@ impl Simulation {
         if self.air_enabled {
             air::boyle_pressure(
                 a.atmospheric_pressure,
-                a.trapped_air,
+                self.trapped_air,
                 self.volume,
                 self.cloth_area,
             )
         } else {
             a.atmospheric_pressure
         }
+    }
+
+    /// Trapped air now, m^3 at atmospheric pressure: the scene's `trapped_air` plus what has
+    /// leaked in since (see `AirParams::leak_conductance`).
+    pub fn trapped_air(&self) -> Real {
+        self.trapped_air
+    }
+
+    /// Length of the cloth's border lifted off every collider during the last step, m: a border
+    /// edge counts fully when neither of its particles touched anything, and half when one of
+    /// them did (the gap opens somewhere along it).
+    pub fn open_border_length(&self) -> Real {
+        let n = self.border.len();
+        (0..n)
+            .map(|e| {
+                let (a, b) = (self.border[e] as usize, self.border[(e + 1) % n] as usize);
+                let lifted = u8::from(!self.contact[a]) + u8::from(!self.contact[b]);
+                0.5 * Real::from(lifted) * self.grid.rest_distance(a, b)
+            })
+            .sum()
     }
 
     /// Whether the pressure force acts.
@@ -275,7 +309,55 @@ impl Simulation {
         if let Some(sc) = &mut self.self_collision {
             *sc = SelfCollision::new(self.grid.len(), 2.0 * self.radius);
         }
-        self.update_air_and_check()
+        self.update_air_and_check()?;
+        self.prev_volume = self.volume;
+        Ok(())
+    }
+
+    /// The bubble pressure the last step's pressure force used, Pa: Boyle's law at the start of
+    /// the step ([`PressureSolve::Explicit`]) or the predicted end-of-step pressure
+    /// ([`PressureSolve::Implicit`]); [`Simulation::air_pressure`] is Boyle's law on the current
+    /// state.
+    pub fn applied_pressure(&self) -> Real {
+        self.applied_pressure
+    }
+
+    /// The bubble pressure this step's pressure force uses, Pa (see [`PressureSolve`]).
+    fn step_pressure(&self, dt: Real) -> Real {
+        let a = &self.config.air;
+        let k = a.atmospheric_pressure * self.trapped_air;
+        if a.pressure_solve == PressureSolve::Explicit || k == 0.0 {
+            return self.air_pressure();
+        }
+        // The bubble as a single degree of freedom: over one Verlet step a pressure P moves
+        // every particle not held by a contact by h (P - P_a) S along its normal (h = dt^2/m,
+        // halved on the Taylor first step), which changes the volume by c (P - P_a) with
+        // c = h S^2 n_free. Inertia (damped), gravity and that term predict the volume at the
+        // end of the step; P solves P * v(P) = K = P_a v0:
+        //   c P^2 + a0 P - K = 0,  a0 = v_coast - c P_a,
+        // whose positive root, written without cancellation, is 2K / (a0 + sqrt(a0^2 + 4cK)).
+        let first = self.steps == 0;
+        let h = dt * dt / self.mass * if first { 0.5 } else { 1.0 };
+        let s = self.area_per_particle;
+        let held = self
+            .contact
+            .iter()
+            .zip(&self.fixed)
+            .filter(|(c, f)| **c || **f)
+            .count();
+        let free = (self.grid.len() - held) as Real;
+        let c = h * s * s * free;
+        let up = self.sticking.map_or(Vec3::Y, |(_, n)| n);
+        let keep = (1.0 - self.config.cloth.damping * dt).max(0.0);
+        let gravity = h * self.mass * self.config.simulation.gravity.dot(up) * s * free;
+        let coast = self.volume + keep * (self.volume - self.prev_volume) + gravity;
+        let a0 = coast - c * a.atmospheric_pressure;
+        let root = (a0 * a0 + 4.0 * c * k).sqrt();
+        if a0 + root > 0.0 {
+            2.0 * k / (a0 + root)
+        } else {
+            self.air_pressure()
+        }
     }
 
     /// Resets to the state at t = 0 (the demo's button 3), keeping the air switch.
@@ -323,11 +405,13 @@ impl Simulation {
 
         // 2-3. Forces, Verlet, contacts: one pass; x(t+dt) overwrites x(t-dt) in place.
         let c = &self.config;
-        let pressure_area = if self.air_enabled {
-            (self.air_pressure() - c.air.atmospheric_pressure) * self.area_per_particle
+        self.applied_pressure = if self.air_enabled {
+            self.step_pressure(dt)
         } else {
-            0.0
+            c.air.atmospheric_pressure
         };
+        let pressure_area =
+            (self.applied_pressure - c.air.atmospheric_pressure) * self.area_per_particle;
         let consts = StepConsts {
             grid: &self.grid,
             planes: &self.planes,
@@ -405,6 +489,16 @@ impl Simulation {
             );
         }
         std::mem::swap(&mut self.x, &mut self.prev);
+
+        // Air leaking in (or out) where the border is lifted off the surface, at the pressure of
+        // the step's start (explicit Euler on the amount of air).
+        let a = &self.config.air;
+        if self.air_enabled && a.leak_conductance > 0.0 && a.atmospheric_pressure > 0.0 {
+            let pa = a.atmospheric_pressure;
+            let flow =
+                a.leak_conductance * self.open_border_length() * (pa - self.air_pressure()) / pa;
+            self.trapped_air = (self.trapped_air + flow * dt).max(0.0);
+        }
 
         // 4. Grabs: cancel the particle's own motion, carry it to its target, and record the
         // force of the hand that does so.
@@ -491,6 +585,7 @@ impl Simulation {
                 limit: BLOWUP_STRETCH,
             });
         }
+        self.prev_volume = self.volume;
         self.volume = self.row_checks.iter().map(|r| r.volume).sum();
         Ok(())
     }
@@ -527,4 +622,15 @@ thread_local! {
     /// Spring scratch of a pool thread, sized on first use (no allocation in later steps).
     static THREAD_SCRATCH: std::cell::RefCell<StepScratch> =
         std::cell::RefCell::new(StepScratch::default());
+}
+
+/// The border particles of `grid` in order around it (each once).
+fn border_loop(grid: &Grid) -> Vec<u32> {
+    let (nx, nz) = (grid.nx, grid.nz);
+    let mut b = Vec::with_capacity(2 * (nx + nz));
+    b.extend((0..nx).map(|i| grid.index(i, 0)));
+    b.extend((1..nz).map(|j| grid.index(nx - 1, j)));
+    b.extend((0..nx - 1).rev().map(|i| grid.index(i, nz - 1)));
+    b.extend((1..nz - 1).rev().map(|j| grid.index(0, j)));
+    b.into_iter().map(|k| k as u32).collect()
 }

@@ -14,7 +14,7 @@
 use wetcloth::{GrabSpec, SimConfig, Simulation};
 
 /// (number of state values hashed, FNV-1a 64 digest of their bits).
-const GOLDEN: (usize, u64) = (6542, 17580815603372153622);
+const GOLDEN: (usize, u64) = (6543, 9944271940908089285);
 
 fn fnv1a(words: impl Iterator<Item = u64>) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
