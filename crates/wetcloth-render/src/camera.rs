@@ -55,11 +55,57 @@ impl Camera {
         }
     }
 
-    /// A pleasant 3/4 view from above that fits the box `bounds_min..bounds_max` in the frame
-    /// (for any aspect ratio down to 1:1), the target at the box centre.
+    /// A pleasant 3/4 view from above (yaw [`FRAMING_YAW`], pitch [`FRAMING_PITCH`]) that fits
+    /// the box `bounds_min..bounds_max` in a frame of aspect ratio 4:3 or wider with a small
+    /// margin, looking at the box centre.
     pub fn framing(bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Self {
-        let (target, distance) = framing_target_distance(bounds_min, bounds_max, DEFAULT_FOV_Y);
-        Self::orbit(target, FRAMING_YAW, FRAMING_PITCH, distance)
+        Self::framing_from(bounds_min, bounds_max, FRAMING_YAW, FRAMING_PITCH)
+    }
+
+    /// Like [`Camera::framing`], from the given `yaw` and `pitch` (radians, as in
+    /// [`Camera::orbit`]).
+    pub fn framing_from(bounds_min: [f32; 3], bounds_max: [f32; 3], yaw: f32, pitch: f32) -> Self {
+        let (target, radius) = framing_target_radius(bounds_min, bounds_max);
+        let (lo, hi) = (
+            Vec3::from(target) - Vec3::splat(radius),
+            Vec3::from(target) + Vec3::splat(radius),
+        );
+        let (lo, hi) = if Vec3::from(bounds_min).cmple(Vec3::from(bounds_max)).all()
+            && Vec3::from(bounds_min).is_finite()
+            && Vec3::from(bounds_max).is_finite()
+        {
+            (Vec3::from(bounds_min), Vec3::from(bounds_max))
+        } else {
+            (lo, hi)
+        };
+        // The smallest distance at which every corner of the box lies within 85 % of the
+        // frame (NDC), found by bisection: the sphere bound alone leaves flat cloths small.
+        let fits = |d: f32| {
+            let cam = Self::orbit(target, yaw, pitch, d);
+            let m = cam.view_proj(4.0 / 3.0);
+            (0..8).all(|i| {
+                let p = Vec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                );
+                let c = m * p.extend(1.0);
+                c.w > 0.0 && (c.x / c.w).abs() <= 0.85 && (c.y / c.w).abs() <= 0.85
+            })
+        };
+        let (mut near, mut far) = (radius * 0.5, radius * 20.0);
+        if !fits(far) {
+            return Self::orbit(target, yaw, pitch, far);
+        }
+        for _ in 0..40 {
+            let mid = 0.5 * (near + far);
+            if fits(mid) {
+                far = mid;
+            } else {
+                near = mid;
+            }
+        }
+        Self::orbit(target, yaw, pitch, far)
     }
 
     /// The view matrix (world to eye space, right-handed, looking down -Z).
@@ -132,12 +178,9 @@ impl Default for Camera {
     }
 }
 
-/// Target and distance that fit a box in a view of vertical field of view `fov_y`.
-pub(crate) fn framing_target_distance(
-    bounds_min: [f32; 3],
-    bounds_max: [f32; 3],
-    fov_y: f32,
-) -> ([f32; 3], f32) {
+/// Centre and bounding-sphere radius of a box (a 30 cm box at the origin if it is empty or
+/// not finite).
+fn framing_target_radius(bounds_min: [f32; 3], bounds_max: [f32; 3]) -> ([f32; 3], f32) {
     let lo = Vec3::from(bounds_min);
     let hi = Vec3::from(bounds_max);
     let (lo, hi) = if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() {
@@ -145,11 +188,10 @@ pub(crate) fn framing_target_distance(
     } else {
         (Vec3::splat(-0.15), Vec3::splat(0.15))
     };
-    let centre = (lo + hi) * 0.5;
-    // The bounding sphere fits the frame's shorter (vertical) extent with a margin.
-    let radius = ((hi - lo).length() * 0.5).max(1e-3);
-    let distance = radius / (fov_y * 0.5).sin() * 1.08;
-    (centre.to_array(), distance)
+    (
+        ((lo + hi) * 0.5).to_array(),
+        ((hi - lo).length() * 0.5).max(1e-3),
+    )
 }
 
 #[cfg(test)]
@@ -189,9 +231,9 @@ mod tests {
                 if i & 2 == 0 { lo[1] } else { hi[1] },
                 if i & 4 == 0 { lo[2] } else { hi[2] },
             ];
-            let s = c.project(p, [400, 400]).unwrap();
+            let s = c.project(p, [400, 300]).unwrap();
             assert!(
-                (0.0..400.0).contains(&s[0]) && (0.0..400.0).contains(&s[1]),
+                (0.0..400.0).contains(&s[0]) && (0.0..300.0).contains(&s[1]),
                 "{s:?}"
             );
         }

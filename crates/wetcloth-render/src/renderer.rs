@@ -114,11 +114,11 @@ pub fn srgb_to_linear(c: [u8; 3]) -> [f32; 3] {
 }
 
 impl Material {
-    /// Polyester satin in a warm pastel (a pale peach-rose): glossy front, matte back.
+    /// Polyester satin in a warm pastel (a pale dusty rose): glossy front, matte back.
     pub fn satin() -> Self {
         Self {
-            front: srgb_to_linear([236, 196, 180]),
-            back: srgb_to_linear([222, 190, 178]),
+            front: srgb_to_linear([236, 186, 190]),
+            back: srgb_to_linear([222, 184, 188]),
             specular: 0.35,
             exponent: 18.0,
             sheen: 0.35,
@@ -129,8 +129,8 @@ impl Material {
     /// The table: a light, warm grey laminate, nearly matte.
     pub fn table() -> Self {
         Self {
-            front: srgb_to_linear([186, 180, 170]),
-            back: srgb_to_linear([186, 180, 170]),
+            front: srgb_to_linear([168, 166, 162]),
+            back: srgb_to_linear([168, 166, 162]),
             specular: 0.08,
             exponent: 24.0,
             sheen: 0.0,

@@ -35,7 +35,7 @@ struct Material {
 const PI: f32 = 3.14159265;
 const SKY: vec3<f32> = vec3<f32>(0.78, 0.84, 0.95);    // ambient from above (cool sky)
 const BOUNCE: vec3<f32> = vec3<f32>(0.42, 0.38, 0.33); // ambient from below (warm table bounce)
-const KEY: vec3<f32> = vec3<f32>(2.55, 2.40, 2.20);    // key light radiance (warm white)
+const KEY: vec3<f32> = vec3<f32>(1.55, 1.46, 1.34);    // key light radiance (warm white)
 const FILL: vec3<f32> = vec3<f32>(0.20, 0.24, 0.32);   // fill light radiance (cool, weak)
 
 struct Surface {
@@ -53,12 +53,12 @@ fn shade(s: Surface, p: vec3<f32>, shadow: f32) -> vec3<f32> {
     let n = s.n;
     let ndl = dot(n, l);
     // Wrapped diffuse: light reaches a little past the terminator, as it does in soft cloth.
-    let wrap = 0.3;
+    let wrap = 0.1;
     let diffuse = max((ndl + wrap) / (1.0 + wrap), 0.0);
     let hemi = mix(BOUNCE, SKY, n.y * 0.5 + 0.5);
     let fill_dir = normalize(vec3<f32>(-l.x, 0.35, -l.z));
     let fill = max(dot(n, fill_dir), 0.0);
-    var c = s.albedo * (0.42 * hemi + KEY * diffuse * shadow + FILL * fill);
+    var c = s.albedo * (0.40 * hemi + KEY * diffuse * shadow + FILL * fill);
 
     // Energy-normalised Blinn-Phong with Schlick's Fresnel (F0 = 4%, cloth and water alike).
     let h = normalize(l + v);
@@ -113,7 +113,7 @@ fn backdrop(frag_y: f32) -> vec3<f32> {
 // Tone mapping (Narkowicz's fit of the ACES curve), then sRGB encoding when the target format
 // does not do it in hardware (egui's swap chain is usually a plain *Unorm format).
 fn finish(c: vec3<f32>) -> vec4<f32> {
-    let x = c * 0.8;
+    let x = c * 0.7; // exposure
     var m = clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), vec3<f32>(0.0), vec3<f32>(1.0));
     if (g.params.y > 0.5) {
         let lo = m * 12.92;
@@ -181,7 +181,7 @@ fn fs_mesh(in: MeshOut, @builtin(front_facing) front: bool) -> @location(0) vec4
 
     let wet = clamp(g.params.x, 0.0, 1.0) * mat.spec.y;
     var albedo = select(mat.back.rgb, mat.front.rgb, front);
-    albedo = mix(albedo, albedo * albedo * 0.9, wet * 0.85);
+    albedo = pow(albedo, vec3<f32>(1.0 + 0.35 * wet)) * (1.0 - 0.38 * wet);
     var s: Surface;
     s.albedo = albedo;
     s.n = n;
@@ -215,7 +215,7 @@ fn fs_ground(in: MeshOut) -> @location(0) vec4<f32> {
     let minor = grid_line(uv);
     let major = grid_line(uv / 5.0);
     var s: Surface;
-    s.albedo = mat.front.rgb * (1.0 - 0.10 * minor - 0.16 * major);
+    s.albedo = mat.front.rgb * (1.0 - 0.06 * minor - 0.10 * major);
     s.n = n;
     s.spec = mat.front.a;
     s.exponent = mat.spec.x;
@@ -251,7 +251,7 @@ fn vs_dot(in: DotIn) -> DotOut {
         vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0),
     );
     let c = corners[in.corner];
-    let size = g.focus.w * select(select(1.0, 2.4, in.kind > 0.5), 1.7, in.kind > 1.5);
+    let size = g.focus.w * select(select(1.0, 3.2, in.kind > 0.5), 1.9, in.kind > 1.5);
     // Pull the quad towards the eye by its size so that the cloth does not cut the dot in half.
     let to_eye = normalize(g.eye.xyz - in.center);
     let p = in.center + (g.cam_right.xyz * c.x + g.cam_up.xyz * c.y) * size + to_eye * size;
