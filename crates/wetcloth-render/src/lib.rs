@@ -18,6 +18,7 @@ pub mod camera;
 mod error;
 pub mod mesh;
 mod offscreen;
+pub mod plot;
 mod renderer;
 mod run;
 
@@ -25,6 +26,7 @@ pub use camera::Camera;
 pub use error::RenderError;
 pub use mesh::{Solid, smooth_normals, tented_grid};
 pub use offscreen::{OFFSCREEN_DEPTH, OFFSCREEN_FORMAT, OFFSCREEN_SAMPLES, Offscreen};
+pub use plot::plot_run;
 pub use renderer::{
     ClothRenderer, GroundPlane, KEY_LIGHT_DIR, Material, MeshView, SceneView, srgb_to_linear,
 };
