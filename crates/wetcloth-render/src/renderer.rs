@@ -129,8 +129,8 @@ impl Material {
     /// The table: a light, warm grey laminate, nearly matte.
     pub fn table() -> Self {
         Self {
-            front: srgb_to_linear([168, 166, 162]),
-            back: srgb_to_linear([168, 166, 162]),
+            front: srgb_to_linear([146, 145, 142]),
+            back: srgb_to_linear([146, 145, 142]),
             specular: 0.08,
             exponent: 24.0,
             sheen: 0.0,
@@ -200,7 +200,7 @@ struct Dot {
 }
 
 /// Side of the square shadow map, texels.
-const SHADOW_SIZE: u32 = 2048;
+const SHADOW_SIZE: u32 = 1024;
 const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// Unit direction towards the key light, fixed in the world (up, from -x and +z) so that the

@@ -85,11 +85,12 @@ pub struct CameraSpec {
 }
 
 impl CameraSpec {
-    /// The camera for a scene with bounds `bounds_min..bounds_max`.
-    pub fn resolve(&self, bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Camera {
+    /// The camera for a scene with bounds `bounds_min..bounds_max` in a frame of width /
+    /// height `aspect`.
+    pub fn resolve(&self, bounds_min: [f32; 3], bounds_max: [f32; 3], aspect: f32) -> Camera {
         let yaw = self.yaw.map_or(FRAMING_YAW, f32::to_radians);
         let pitch = self.pitch.map_or(FRAMING_PITCH, f32::to_radians);
-        let framed = Camera::framing_from(bounds_min, bounds_max, yaw, pitch);
+        let framed = Camera::framing_aspect(bounds_min, bounds_max, yaw, pitch, aspect);
         let target = self.target.unwrap_or(framed.target);
         let mut cam = if let Some(eye) = self.eye {
             let d = glam::Vec3::from(eye)
@@ -722,7 +723,12 @@ pub fn render_run_with_progress(
         corners.extend([lo, hi]);
     }
     let (lo, hi) = bounds_of(&corners).unwrap_or(([-0.15, 0.0, -0.15], [0.15, 0.02, 0.15]));
-    let camera = opts.camera.clone().unwrap_or_default().resolve(lo, hi);
+    let aspect = opts.size.width as f32 / opts.size.height as f32;
+    let camera = opts
+        .camera
+        .clone()
+        .unwrap_or_default()
+        .resolve(lo, hi, aspect);
 
     let out_dir = opts.output_dir();
     std::fs::create_dir_all(&out_dir).map_err(|e| RenderError::io(&out_dir, e))?;
@@ -940,14 +946,14 @@ mod tests {
             (c.yaw, c.pitch, c.distance),
             (Some(30.0), Some(20.0), Some(0.8))
         );
-        let cam = c.resolve([-0.1, 0.0, -0.1], [0.1, 0.0, 0.1]);
+        let cam = c.resolve([-0.1, 0.0, -0.1], [0.1, 0.0, 0.1], 1.5);
         let d = glam::Vec3::from(cam.eye) - glam::Vec3::from(cam.target);
         assert!((d.length() - 0.8).abs() < 1e-5);
         assert!((d.y / d.length() - 20f32.to_radians().sin()).abs() < 1e-5);
 
         let c: CameraSpec = "eye=0.4,0.3,0.5;target=0,0.01,0 fov=25".parse().unwrap();
         assert_eq!(c.eye, Some([0.4, 0.3, 0.5]));
-        let cam = c.resolve([0.0; 3], [0.0; 3]);
+        let cam = c.resolve([0.0; 3], [0.0; 3], 1.5);
         assert_eq!((cam.eye, cam.target), ([0.4, 0.3, 0.5], [0.0, 0.01, 0.0]));
         assert!((cam.fov_y - 25f32.to_radians()).abs() < 1e-6);
         assert_eq!(c.to_string().parse::<CameraSpec>().unwrap(), c);
