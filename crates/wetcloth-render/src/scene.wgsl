@@ -35,7 +35,7 @@ struct Material {
 const PI: f32 = 3.14159265;
 const SKY: vec3<f32> = vec3<f32>(0.78, 0.84, 0.95);    // ambient from above (cool sky)
 const BOUNCE: vec3<f32> = vec3<f32>(0.42, 0.38, 0.33); // ambient from below (warm table bounce)
-const KEY: vec3<f32> = vec3<f32>(1.55, 1.46, 1.34);    // key light radiance (warm white)
+const KEY: vec3<f32> = vec3<f32>(1.30, 1.23, 1.13);    // key light radiance (warm white)
 const FILL: vec3<f32> = vec3<f32>(0.20, 0.24, 0.32);   // fill light radiance (cool, weak)
 
 struct Surface {
@@ -58,7 +58,7 @@ fn shade(s: Surface, p: vec3<f32>, shadow: f32) -> vec3<f32> {
     let hemi = mix(BOUNCE, SKY, n.y * 0.5 + 0.5);
     let fill_dir = normalize(vec3<f32>(-l.x, 0.35, -l.z));
     let fill = max(dot(n, fill_dir), 0.0);
-    var c = s.albedo * (0.40 * hemi + KEY * diffuse * shadow + FILL * fill);
+    var c = s.albedo * (0.62 * hemi + KEY * diffuse * shadow + FILL * fill);
 
     // Energy-normalised Blinn-Phong with Schlick's Fresnel (F0 = 4%, cloth and water alike).
     let h = normalize(l + v);
@@ -89,7 +89,7 @@ fn key_visibility(p: vec3<f32>, n: vec3<f32>) -> f32 {
     if (any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || q.z > 1.0) {
         return 1.0;
     }
-    // A 3x3 tent of comparisons 1.5 texels apart, each bilinearly filtered by the comparison
+    // A 3x3 tent of comparisons 2.5 texels apart, each bilinearly filtered by the comparison
     // sampler (2x2 texels): a soft penumbra for 9 taps.
     let texel = 1.0 / g.shadow.z;
     var sum = 0.0;
@@ -97,7 +97,7 @@ fn key_visibility(p: vec3<f32>, n: vec3<f32>) -> f32 {
     for (var j = -1; j <= 1; j++) {
         for (var i = -1; i <= 1; i++) {
             let w = (2.0 - abs(f32(i))) * (2.0 - abs(f32(j)));
-            let o = vec2<f32>(f32(i), f32(j)) * texel * 1.5;
+            let o = vec2<f32>(f32(i), f32(j)) * texel * 2.5;
             sum += w * textureSampleCompareLevel(shadow_map, shadow_sampler, uv + o, q.z - 0.0015);
             weight += w;
         }

@@ -161,10 +161,10 @@ fn a_lifted_centre_is_shaded_by_the_slope_and_a_flat_cloth_is_not() {
     let away = pixel(&img, tent.at(13, 7));
     assert!(is_cloth(lit) && is_cloth(away), "{lit:?} {away:?}");
     let d_tent = luma(lit) - luma(away);
-    assert!(d_flat.abs() < 10, "a flat cloth shades evenly: {d_flat}");
+    assert!(d_flat.abs() < 6, "a flat cloth shades evenly: {d_flat}");
     assert!(
-        d_tent > 25,
-        "the lit slope must be brighter than the far one: {d_tent}"
+        d_tent > 15 && d_tent > 3 * d_flat.abs(),
+        "the lit slope must be brighter than the far one: {d_tent} (flat: {d_flat})"
     );
 }
 
@@ -213,7 +213,10 @@ fn pins_and_the_cursor_are_drawn_on_their_particles() {
     let (ring, ring2) = (on_ring(1.0), on_ring(-1.0));
     let amber = |c: [i32; 3]| c[0] > c[2] + 60 && c[1] > c[2] + 20;
     let middle = pixel(&img, s.camera.project(centre.to_array(), [W, H]).unwrap());
-    assert!(is_cloth(middle) && !amber(middle), "cursor middle drawn as {middle:?}");
+    assert!(
+        is_cloth(middle) && !amber(middle),
+        "cursor middle drawn as {middle:?}"
+    );
     assert!(
         amber(ring) && amber(ring2),
         "cursor ring drawn as {ring:?} / {ring2:?}"
