@@ -883,6 +883,12 @@ impl ClothRenderer {
     }
 }
 
+// The viewer keeps the renderer in egui-wgpu's callback resources, which must be Send + Sync.
+const _: fn() = || {
+    fn send_sync<T: Send + Sync + 'static>() {}
+    send_sync::<ClothRenderer>();
+};
+
 /// Sorts triangles far to near from `eye` (painter's algorithm, for passes without depth).
 fn sort_back_to_front(indices: &mut [u32], positions: &[[f32; 3]], eye: Vec3) {
     let mut tris: Vec<(f32, [u32; 3])> = indices

@@ -322,15 +322,15 @@ pub struct RenderOptions {
     /// Run directory written by `wetcloth run` (frames/frame_NNNN.obj, run.json).
     #[cfg_attr(feature = "clap", arg(value_name = "RUN_DIR"))]
     pub run_dir: PathBuf,
-    /// Output directory for the PNG frames and the MP4 [default: RUN_DIR/render].
+    /// Output directory for the PNG frames and the MP4 (default: RUN_DIR/render).
     #[cfg_attr(feature = "clap", arg(long = "out", value_name = "DIR"))]
     pub out_dir: Option<PathBuf>,
     /// Image size in pixels.
     #[cfg_attr(feature = "clap", arg(long, value_name = "WxH", default_value_t = ImageSize::default()))]
     pub size: ImageSize,
-    /// Camera: YAW,PITCH[,DISTANCE] in degrees and metres, or key=value pairs
-    /// (yaw, pitch, distance, fov, target=x,y,z, eye=x,y,z) separated by ';' [default: a 3/4
-    /// view framing the whole run].
+    /// Camera: YAW,PITCH or YAW,PITCH,DISTANCE in degrees and metres, or key=value pairs
+    /// (yaw, pitch, distance, fov, target=x,y,z, eye=x,y,z) separated by ';' (default: a 3/4
+    /// view framing the whole run).
     #[cfg_attr(
         feature = "clap",
         arg(long, value_name = "SPEC", allow_hyphen_values = true)
@@ -339,7 +339,7 @@ pub struct RenderOptions {
     /// Draw the particles as dots.
     #[cfg_attr(feature = "clap", arg(long))]
     pub particles: bool,
-    /// Frames to render: N, A..B, A..=B, A.., ..B, with an optional :STEP [default: all].
+    /// Frames to render: N, A..B, A..=B, A.., ..B, each with an optional :STEP (default: all).
     #[cfg_attr(feature = "clap", arg(long, value_name = "SEL"))]
     pub frames: Option<FrameSelection>,
     /// How wet the cloth looks, 0 (dry) to 1 (wet: darker, glossier).
@@ -961,5 +961,53 @@ mod tests {
         for bad in ["1", "1,2,3,4", "yaw=a", "zoom=2", "eye=1,2", "30,20,-1"] {
             assert!(bad.parse::<CameraSpec>().is_err(), "{bad}");
         }
+    }
+
+    #[cfg(feature = "clap")]
+    #[test]
+    fn clap_fills_render_options() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            opts: RenderOptions,
+        }
+        let cli = Cli::try_parse_from(["render", "runs/a"]).unwrap();
+        assert_eq!(cli.opts, RenderOptions::new("runs/a"));
+        let cli = Cli::try_parse_from([
+            "render",
+            "runs/a",
+            "--out",
+            "pics",
+            "--size",
+            "640x360",
+            "--camera",
+            "-60,40",
+            "--frames",
+            ":2",
+            "--particles",
+            "--wetness",
+            "0.3",
+            "--no-video",
+            "--no-grabs",
+        ])
+        .unwrap();
+        let o = cli.opts;
+        assert_eq!(o.out_dir, Some(PathBuf::from("pics")));
+        assert_eq!(
+            o.size,
+            ImageSize {
+                width: 640,
+                height: 360
+            }
+        );
+        assert_eq!(o.camera.unwrap().yaw, Some(-60.0));
+        assert_eq!(o.frames.unwrap().step, 2);
+        assert!(o.particles && !o.video && !o.show_grabs);
+        assert_eq!(o.wetness, 0.3);
+        let err = Cli::try_parse_from(["render", "runs/a", "--size", "big"])
+            .err()
+            .unwrap();
+        assert!(err.to_string().contains("WIDTHxHEIGHT"), "{err}");
     }
 }
