@@ -106,8 +106,10 @@ fn key_visibility(p: vec3<f32>, n: vec3<f32>) -> f32 {
 }
 
 // The backdrop: a vertical gradient, cool grey at the top to a light warm grey at the bottom.
-fn backdrop(frag_y: f32) -> vec3<f32> {
-    let t = clamp(frag_y / max(g.params.w, 1.0), 0.0, 1.0);
+// `ndc_y` is the height in the viewport, 1 at the top to -1 at the bottom (not the framebuffer
+// row, which is offset when the viewer paints into part of its window).
+fn backdrop(ndc_y: f32) -> vec3<f32> {
+    let t = clamp(0.5 - 0.5 * ndc_y, 0.0, 1.0);
     return mix(vec3<f32>(0.30, 0.34, 0.40), vec3<f32>(0.62, 0.61, 0.59), smoothstep(0.0, 1.0, t));
 }
 
@@ -129,6 +131,7 @@ fn finish(c: vec3<f32>) -> vec4<f32> {
 
 struct BgOut {
     @builtin(position) clip: vec4<f32>,
+    @location(0) ndc_y: f32,
 }
 
 @vertex
@@ -136,12 +139,13 @@ fn vs_background(@builtin(vertex_index) i: u32) -> BgOut {
     let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
     var o: BgOut;
     o.clip = vec4<f32>(uv * 2.0 - 1.0, 1.0, 1.0);
+    o.ndc_y = o.clip.y;
     return o;
 }
 
 @fragment
 fn fs_background(in: BgOut) -> @location(0) vec4<f32> {
-    return finish(backdrop(in.clip.y));
+    return finish(backdrop(in.ndc_y));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -156,6 +160,7 @@ struct MeshOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
+    @location(2) clip_yw: vec2<f32>, // clip-space y and w, for the backdrop behind the table
 }
 
 @vertex
@@ -164,6 +169,7 @@ fn vs_mesh(in: MeshIn) -> MeshOut {
     o.clip = g.view_proj * vec4<f32>(in.pos, 1.0);
     o.world = in.pos;
     o.normal = in.normal;
+    o.clip_yw = o.clip.yw;
     return o;
 }
 
@@ -225,7 +231,7 @@ fn fs_ground(in: MeshOut) -> @location(0) vec4<f32> {
     let lit = shade(s, in.world, key_visibility(in.world, n));
     let r = length(in.world - g.focus.xyz);
     let fade = smoothstep(0.45 * g.ground_normal.w, g.ground_normal.w, r);
-    return finish(mix(lit, backdrop(in.clip.y), fade));
+    return finish(mix(lit, backdrop(in.clip_yw.x / in.clip_yw.y), fade));
 }
 
 // ---------------------------------------------------------------------------------------------
