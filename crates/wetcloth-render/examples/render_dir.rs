@@ -1,5 +1,6 @@
 //! Renders a run directory like `wetcloth render` will:
-//! `cargo run --release --example render_dir -- RUN_DIR [WxH] [FRAMES] [CAMERA]`, then plots it.
+//! `cargo run --release --example render_dir -- RUN_DIR [WxH] [FRAMES] [CAMERA] [WETNESS]`, then
+//! plots it. Empty arguments keep the defaults.
 
 use wetcloth_render::{RenderOptions, plot_run, render_run_with_progress};
 
@@ -15,8 +16,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(s) = args.next().filter(|s| !s.is_empty()) {
         opts.frames = Some(s.parse()?);
     }
-    if let Some(s) = args.next() {
+    if let Some(s) = args.next().filter(|s| !s.is_empty()) {
         opts.camera = Some(s.parse()?);
+    }
+    if let Some(s) = args.next() {
+        opts.wetness = s.parse()?;
     }
     let summary = render_run_with_progress(opts, &mut |done, total| {
         eprint!("\r{done}/{total}");

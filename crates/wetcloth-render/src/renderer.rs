@@ -117,8 +117,8 @@ impl Material {
     /// Polyester satin in a warm pastel (a pale dusty rose): glossy front, matte back.
     pub fn satin() -> Self {
         Self {
-            front: srgb_to_linear([236, 186, 190]),
-            back: srgb_to_linear([222, 184, 188]),
+            front: srgb_to_linear([228, 170, 176]),
+            back: srgb_to_linear([214, 170, 174]),
             specular: 0.35,
             exponent: 18.0,
             sheen: 0.35,

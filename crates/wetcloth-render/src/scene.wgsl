@@ -188,7 +188,7 @@ fn fs_mesh(in: MeshOut, @builtin(front_facing) front: bool) -> @location(0) vec4
 
     let wet = clamp(g.params.x, 0.0, 1.0) * mat.spec.y;
     var albedo = select(mat.back.rgb, mat.front.rgb, front);
-    albedo = pow(albedo, vec3<f32>(1.0 + 0.35 * wet)) * (1.0 - 0.38 * wet);
+    albedo = pow(albedo, vec3<f32>(1.0 + 0.3 * wet)) * (1.0 - 0.3 * wet);
     var s: Surface;
     s.albedo = albedo;
     s.n = n;
