@@ -246,3 +246,21 @@ fn a_pass_without_depth_still_draws_the_cloth_over_the_table() {
         "{differ} pixels differ between the passes with and without depth"
     );
 }
+
+#[test]
+fn the_cloth_material_can_be_changed() {
+    use wetcloth_render::Material;
+    let mut off = offscreen();
+    let blue = Material {
+        front: [0.05, 0.1, 0.6],
+        back: [0.05, 0.1, 0.6],
+        ..Material::satin()
+    };
+    off.set_materials(Some(&blue), None, None);
+    let s = setup(0.0);
+    let img = off.render(&s.scene()).unwrap();
+    let c = pixel(&img, s.at(10, 10));
+    assert!(c[2] > c[0] + 30, "blue cloth drawn as {c:?}");
+    let t = pixel(&img, s.camera.project([0.22, 0.0, 0.0], [W, H]).unwrap());
+    assert!(is_table(t), "the table keeps its colour: {t:?}");
+}
