@@ -162,8 +162,9 @@ pub enum PressureSolve {
     /// The pressure at the *end* of the step: `P_b` solves `P_b v(t + dt) = P_a v0`, with
     /// `v(t + dt)` predicted from the step's own dynamics (inertia, damping, gravity, and the
     /// pressure force itself on the particles not held by a contact), a quadratic with one
-    /// positive root. The air spring is then integrated implicitly and is stable for any
-    /// amount of air; the other forces stay explicit.
+    /// positive root. The bubble's stiffness acts on the whole cloth as one mode, and that mode
+    /// is then integrated implicitly (the prediction overestimates the volume's response a
+    /// little, which damps it); the other forces stay explicit.
     #[default]
     Implicit,
 }
