@@ -1,0 +1,30 @@
+//! Rendering and plotting for wetcloth runs.
+//!
+//! One renderer ([`ClothRenderer`], wgpu with WGSL shaders) draws the scene for both the
+//! offline `wetcloth render` command (through [`Offscreen`]) and the interactive viewer (through
+//! egui-wgpu's paint callback, which hands over its device and render pass). The look imitates
+//! the thesis' set-up: a satin cloth on a plain table, lit softly, darker and glossier when wet.
+//!
+//! - [`Camera`]: orbit and auto-framing look-at camera.
+//! - [`SceneView`]: what one frame shows (cloth mesh, table plane, particles, pins, solids).
+//! - [`ClothRenderer`]: `new` once, then `prepare` + `paint` per frame.
+//! - [`Offscreen`]: a headless device rendering [`SceneView`]s into images.
+//! - [`render_run`]: a run directory's frames to PNGs (and an MP4 when ffmpeg is installed).
+//! - [`plot::plot_run`]: a run's `metrics.csv` to a chart.
+//!
+//! The `wgpu` version is the one egui-wgpu 0.37 uses (wgpu 30), re-exported as [`wgpu`].
+
+pub mod camera;
+mod error;
+pub mod mesh;
+mod offscreen;
+mod renderer;
+
+pub use camera::Camera;
+pub use error::RenderError;
+pub use mesh::{Solid, smooth_normals, tented_grid};
+pub use offscreen::{OFFSCREEN_DEPTH, OFFSCREEN_FORMAT, OFFSCREEN_SAMPLES, Offscreen};
+pub use renderer::{
+    ClothRenderer, GroundPlane, KEY_LIGHT_DIR, Material, MeshView, SceneView, srgb_to_linear,
+};
+pub use wgpu;
