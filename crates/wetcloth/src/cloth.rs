@@ -22,14 +22,46 @@ pub struct Neighbour {
 /// The 8 neighbours, in the fixed order every stencil loop sums them (so results do not depend
 /// on scheduling).
 pub const STENCIL: [Neighbour; 8] = [
-    Neighbour { di: -1, dj: 0, structural: true },
-    Neighbour { di: 1, dj: 0, structural: true },
-    Neighbour { di: 0, dj: -1, structural: true },
-    Neighbour { di: 0, dj: 1, structural: true },
-    Neighbour { di: -1, dj: -1, structural: false },
-    Neighbour { di: 1, dj: -1, structural: false },
-    Neighbour { di: -1, dj: 1, structural: false },
-    Neighbour { di: 1, dj: 1, structural: false },
+    Neighbour {
+        di: -1,
+        dj: 0,
+        structural: true,
+    },
+    Neighbour {
+        di: 1,
+        dj: 0,
+        structural: true,
+    },
+    Neighbour {
+        di: 0,
+        dj: -1,
+        structural: true,
+    },
+    Neighbour {
+        di: 0,
+        dj: 1,
+        structural: true,
+    },
+    Neighbour {
+        di: -1,
+        dj: -1,
+        structural: false,
+    },
+    Neighbour {
+        di: 1,
+        dj: -1,
+        structural: false,
+    },
+    Neighbour {
+        di: -1,
+        dj: 1,
+        structural: false,
+    },
+    Neighbour {
+        di: 1,
+        dj: 1,
+        structural: false,
+    },
 ];
 
 /// The regular particle grid of a cloth and its rest geometry.

@@ -61,11 +61,21 @@ mod tests {
     fn penetration_is_removed_and_static_friction_sticks() {
         let floor = [Collider::plane(Vec3::ZERO, Vec3::Y, 0.5)];
         // Pressed 1 mm in while moving 0.4 mm sideways: grip 0.5 mm stops it.
-        let (x, hit) = resolve(&floor, Vec3::new(0.0, 0.01, 0.0), Vec3::new(4e-4, 0.009, 0.0), 0.01);
+        let (x, hit) = resolve(
+            &floor,
+            Vec3::new(0.0, 0.01, 0.0),
+            Vec3::new(4e-4, 0.009, 0.0),
+            0.01,
+        );
         assert!(hit);
         assert!((x - Vec3::new(0.0, 0.01, 0.0)).length() < 1e-15);
         // Moving 2 mm sideways: slides 1.5 mm.
-        let (x, _) = resolve(&floor, Vec3::new(0.0, 0.01, 0.0), Vec3::new(2e-3, 0.009, 0.0), 0.01);
+        let (x, _) = resolve(
+            &floor,
+            Vec3::new(0.0, 0.01, 0.0),
+            Vec3::new(2e-3, 0.009, 0.0),
+            0.01,
+        );
         assert!((x.x - 1.5e-3).abs() < 1e-15 && (x.y - 0.01).abs() < 1e-15);
         // Clear of the plane: untouched.
         let p = Vec3::new(1.0, 0.5, 0.0);

@@ -56,25 +56,20 @@ impl<'a> RowRef<'a> {
     }
 }
 
-/// Adds to `f[k]` the spring force on particle `a[k]` from particle `b[k]` for every `k`: one
-/// stencil direction over a run of a row. Written over plain slices (no branches, one divide)
-/// so the compiler vectorises it across particles; the `max` replaces the zero-length guard of
-/// [`spring_force`].
+/// Writes to `f[k]` the spring force on particle `a[k]` from particle `b[k]` for every `k` (the
+/// force on `b[k]` is its opposite): one stencil direction over a run of a row. Written over
+/// plain slices (no branches, one square root and one divide) so the compiler vectorises it
+/// across particles; the select replaces the zero-length guard of [`spring_force`].
 #[inline]
-pub(crate) fn add_springs(
+pub(crate) fn spring_forces(
     f: &mut RowMut<'_>,
-    f_start: usize,
     a: RowRef<'_>,
     b: RowRef<'_>,
     stiffness: Real,
     rest_length: Real,
 ) {
     let n = a.x.len();
-    let (fx, fy, fz) = (
-        &mut f.x[f_start..f_start + n],
-        &mut f.y[f_start..f_start + n],
-        &mut f.z[f_start..f_start + n],
-    );
+    let (fx, fy, fz) = (&mut f.x[..n], &mut f.y[..n], &mut f.z[..n]);
     let (bx, by, bz) = (&b.x[..n], &b.y[..n], &b.z[..n]);
     for k in 0..n {
         let dx = bx[k] - a.x[k];
@@ -83,9 +78,9 @@ pub(crate) fn add_springs(
         let len = (dx * dx + dy * dy + dz * dz).sqrt().max(MIN_LENGTH);
         let s = stiffness * (len - rest_length) / len;
         let s = if len > MIN_LENGTH { s } else { 0.0 };
-        fx[k] += s * dx;
-        fy[k] += s * dy;
-        fz[k] += s * dz;
+        fx[k] = s * dx;
+        fy[k] = s * dy;
+        fz[k] = s * dz;
     }
 }
 
@@ -116,11 +111,18 @@ mod tests {
             y: &mut fy,
             z: &mut fz,
         };
-        add_springs(
+        spring_forces(
             &mut row,
-            0,
-            RowRef { x: &a, y: &zero, z: &zero },
-            RowRef { x: &b, y: &by, z: &zero },
+            RowRef {
+                x: &a,
+                y: &zero,
+                z: &zero,
+            },
+            RowRef {
+                x: &b,
+                y: &by,
+                z: &zero,
+            },
             50.0,
             0.2,
         );
@@ -132,7 +134,10 @@ mod tests {
                 0.2,
             );
             let got = Vec3::new(fx[k], fy[k], fz[k]);
-            assert!((got - expect).length() <= 1e-12 * (1.0 + expect.length()), "{k}");
+            assert!(
+                (got - expect).length() <= 1e-12 * (1.0 + expect.length()),
+                "{k}"
+            );
         }
     }
 }

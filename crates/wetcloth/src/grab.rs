@@ -161,7 +161,11 @@ impl Grab {
                 let d = *target - x;
                 let max = max_speed * dt;
                 let len = d.length();
-                Some(if len > max { x + d * (max / len) } else { *target })
+                Some(if len > max {
+                    x + d * (max / len)
+                } else {
+                    *target
+                })
             }
         }
     }

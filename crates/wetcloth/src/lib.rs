@@ -50,12 +50,14 @@
 //! ```
 
 pub mod air;
+pub mod bench;
 pub mod cloth;
 pub mod collider;
 pub mod contact;
 pub mod error;
 pub mod forces;
 pub mod grab;
+mod kernels;
 pub mod math;
 pub mod metrics;
 pub mod params;

@@ -39,7 +39,9 @@ pub struct SelfCollision {
 
 #[inline]
 fn bucket_of(c: [i64; 3], mask: usize) -> usize {
-    let h = (c[0].wrapping_mul(73_856_093)) ^ (c[1].wrapping_mul(19_349_663)) ^ (c[2].wrapping_mul(83_492_791));
+    let h = (c[0].wrapping_mul(73_856_093))
+        ^ (c[1].wrapping_mul(19_349_663))
+        ^ (c[2].wrapping_mul(83_492_791));
     (h as usize) & mask
 }
 
@@ -64,12 +66,32 @@ impl SelfCollision {
             return true;
         }
         let limit = (0.5 * self.skin) * (0.5 * self.skin);
-        (0..p.len()).into_par_iter().with_min_len(4096).any(|i| {
-            let dx = p.x[i] - self.reference.x[i];
-            let dy = p.y[i] - self.reference.y[i];
-            let dz = p.z[i] - self.reference.z[i];
-            dx * dx + dy * dy + dz * dz > limit
-        })
+        let r = &self.reference;
+        // Largest squared displacement of a chunk, as a branch-free loop that vectorises.
+        let moved = |range: std::ops::Range<usize>| {
+            let (x, y, z) = (
+                &p.x[range.clone()],
+                &p.y[range.clone()],
+                &p.z[range.clone()],
+            );
+            let (rx, ry, rz) = (&r.x[range.clone()], &r.y[range.clone()], &r.z[range]);
+            let mut worst: Real = 0.0;
+            for i in 0..x.len() {
+                let (dx, dy, dz) = (x[i] - rx[i], y[i] - ry[i], z[i] - rz[i]);
+                let d = dx * dx + dy * dy + dz * dz;
+                worst = if d > worst { d } else { worst };
+            }
+            worst
+        };
+        let n = p.len();
+        if n >= crate::sim::PARALLEL_MIN_PARTICLES {
+            (0..n.div_ceil(4096))
+                .into_par_iter()
+                .map(|c| moved(c * 4096..((c + 1) * 4096).min(n)))
+                .any(|d| d > limit)
+        } else {
+            moved(0..n) > limit
+        }
     }
 
     fn rebuild(&mut self, grid: &Grid, p: &Soa) {
@@ -106,7 +128,8 @@ impl SelfCollision {
         }
         // Neighbour lists: everything within `cell` of each particle, in a fixed order.
         let reach2 = cell * cell;
-        let (cells, bucket_start, bucket_items) = (&self.cells, &self.bucket_start, &self.bucket_items);
+        let (cells, bucket_start, bucket_items) =
+            (&self.cells, &self.bucket_start, &self.bucket_items);
         let per_particle: Vec<Vec<u32>> = (0..n)
             .into_par_iter()
             .with_min_len(1024)
@@ -119,7 +142,9 @@ impl SelfCollision {
                         for oz in -1..=1 {
                             let q = [c[0] + ox, c[1] + oy, c[2] + oz];
                             let b = bucket_of(q, mask);
-                            for &j in &bucket_items[bucket_start[b] as usize..bucket_start[b + 1] as usize] {
+                            for &j in &bucket_items
+                                [bucket_start[b] as usize..bucket_start[b + 1] as usize]
+                            {
                                 let j = j as usize;
                                 if j == i || cells[j] != q {
                                     continue;
@@ -159,34 +184,33 @@ impl SelfCollision {
         let (start, list) = (&self.start, &self.list);
         let pr = &*p;
         let c = &mut self.corrections;
-        let hits: usize = c
-            .x
-            .par_iter_mut()
-            .zip(c.y.par_iter_mut())
-            .zip(c.z.par_iter_mut())
-            .enumerate()
-            .with_min_len(1024)
-            .map(|(i, ((cx, cy), cz))| {
-                let mut corr = Vec3::ZERO;
-                let mut hits = 0;
-                if !fixed[i] {
-                    let pi = pr.get(i);
-                    for &j in &list[start[i] as usize..start[i + 1] as usize] {
-                        let j = j as usize;
-                        let min = d.min(grid.rest_distance(i, j));
-                        let delta = pi - pr.get(j);
-                        let dist = delta.length();
-                        if dist < min && dist > 0.0 {
-                            hits += 1;
-                            let share = if fixed[j] { 1.0 } else { 0.5 };
-                            corr += delta * (share * (min - dist) / dist);
+        let hits: usize =
+            c.x.par_iter_mut()
+                .zip(c.y.par_iter_mut())
+                .zip(c.z.par_iter_mut())
+                .enumerate()
+                .with_min_len(1024)
+                .map(|(i, ((cx, cy), cz))| {
+                    let mut corr = Vec3::ZERO;
+                    let mut hits = 0;
+                    if !fixed[i] {
+                        let pi = pr.get(i);
+                        for &j in &list[start[i] as usize..start[i + 1] as usize] {
+                            let j = j as usize;
+                            let min = d.min(grid.rest_distance(i, j));
+                            let delta = pi - pr.get(j);
+                            let dist = delta.length();
+                            if dist < min && dist > 0.0 {
+                                hits += 1;
+                                let share = if fixed[j] { 1.0 } else { 0.5 };
+                                corr += delta * (share * (min - dist) / dist);
+                            }
                         }
                     }
-                }
-                (*cx, *cy, *cz) = (corr.x, corr.y, corr.z);
-                hits
-            })
-            .sum();
+                    (*cx, *cy, *cz) = (corr.x, corr.y, corr.z);
+                    hits
+                })
+                .sum();
         if hits > 0 {
             p.x.par_iter_mut().zip(&c.x).for_each(|(a, b)| *a += b);
             p.y.par_iter_mut().zip(&c.y).for_each(|(a, b)| *a += b);

@@ -1,12 +1,13 @@
 //! The simulation and its step (thesis 3.2, fig. 3.4).
 
 use crate::air;
-use crate::cloth::{Grid, STENCIL};
+use crate::cloth::Grid;
 use crate::collider::Collider;
 use crate::contact;
 use crate::error::{ConfigError, StepError};
-use crate::forces::{RowMut, RowRef};
+use crate::forces::RowMut;
 use crate::grab::{Grab, GrabMotion};
+use crate::kernels::{self, PlaneContact, RowCheck, StepConsts, StepScratch};
 use crate::math::{Real, Soa, Vec3};
 use crate::metrics::FrameMetrics;
 use crate::params::SimConfig;
@@ -18,26 +19,19 @@ use rayon::prelude::*;
 /// tears long before, while strong suction legitimately stretches springs by tens of percent.
 pub const BLOWUP_STRETCH: Real = 10.0;
 
-/// Rows handed to one parallel task: enough work per task to hide the scheduling cost.
-/// Results never depend on it (every particle's sum has a fixed order).
-const ROWS_PER_TASK: usize = 8;
+/// Fewest rows handed to one parallel task. Results never depend on how rows are split (every
+/// particle's sum has a fixed order).
+const MIN_ROWS_PER_TASK: usize = 4;
 
-/// Constants of one step, shared by the row kernels.
-struct StepConsts<'a> {
-    grid: &'a Grid,
-    colliders: &'a [Collider],
-    mass: Real,
-    dt: Real,
-    gravity: Vec3,
-    /// `damping * m / dt`: the damping force is `-damp * (x - x_prev)`.
-    damp: Real,
-    structural: Real,
-    shear: Real,
-    rest: [Real; 8],
-    /// `(P_b - P_a) S`, N: the pressure force is this times the unit normal.
-    pressure_area: Real,
-    radius: Real,
-}
+/// Below this many particles, a step called from outside the thread pool runs on the calling
+/// thread: handing a job to the pool from outside and waiting for it costs microseconds, more
+/// than a small cloth's whole step. [`Simulation::advance`] steps inside the pool, where
+/// splitting a step costs tens of nanoseconds, and parallelises from
+/// [`PARALLEL_MIN_PARTICLES_IN_POOL`] on.
+pub const PARALLEL_MIN_PARTICLES: usize = 16_384;
+
+/// Below this many particles even a step inside the thread pool runs on one thread.
+pub const PARALLEL_MIN_PARTICLES_IN_POOL: usize = 1_024;
 
 /// A wet cloth on its colliders, with trapped air and grabs.
 ///
@@ -69,8 +63,10 @@ pub struct Simulation {
     saved_prev: Vec<Vec3>,
     self_collision: Option<SelfCollision>,
     scratch: Soa,
-    row_volume: Vec<Real>,
-    row_stretch: Vec<Real>,
+    row_checks: Vec<RowCheck>,
+    step_scratch: StepScratch,
+    planes: Vec<PlaneContact>,
+    others: Vec<Collider>,
     volume: Real,
     steps: u64,
 }
@@ -115,8 +111,25 @@ impl Simulation {
             saved_prev: Vec::new(),
             self_collision,
             scratch: Soa::zeros(n),
-            row_volume: vec![0.0; grid.nz],
-            row_stretch: vec![0.0; grid.nz],
+            row_checks: vec![RowCheck::default(); grid.nz],
+            step_scratch: StepScratch::new(grid.nx),
+            planes: config
+                .colliders
+                .iter()
+                .filter_map(|c| {
+                    c.as_plane().map(|(point, normal)| PlaneContact {
+                        normal,
+                        offset: normal.dot(point) + radius,
+                        friction: c.friction,
+                    })
+                })
+                .collect(),
+            others: config
+                .colliders
+                .iter()
+                .filter(|c| c.as_plane().is_none())
+                .copied()
+                .collect(),
             volume: 0.0,
             steps: 0,
             grid,
@@ -251,6 +264,28 @@ impl Simulation {
         self.self_collision.as_ref().map_or(0, |s| s.rebuilds)
     }
 
+    /// Replaces the particle positions (m) at the current and the previous step, e.g. to start
+    /// from a draped or folded shape; the velocity is `(positions - previous) / dt`. Both must
+    /// have one entry per particle.
+    pub fn set_state(&mut self, positions: Soa, previous: Soa) -> Result<(), StepError> {
+        assert_eq!(
+            positions.len(),
+            self.grid.len(),
+            "one position per particle"
+        );
+        assert_eq!(
+            previous.len(),
+            self.grid.len(),
+            "one previous position per particle"
+        );
+        self.x = positions;
+        self.prev = previous;
+        if let Some(sc) = &mut self.self_collision {
+            *sc = SelfCollision::new(self.grid.len(), 2.0 * self.radius);
+        }
+        self.update_air_and_check()
+    }
+
     /// Resets to the state at t = 0 (the demo's button 3), keeping the air switch.
     pub fn reset(&mut self) -> Result<(), ConfigError> {
         let air = self.air_enabled;
@@ -271,6 +306,8 @@ impl Simulation {
     ///    the pressure force `(P_b - P_a) S N` (eq. 3.7, physical sign) with `P_b` from Boyle's
     ///    law on the current bubble volume (3.4-3.5);
     /// 3. integrate with position Verlet (eq. 3.1) and resolve contacts with the colliders:
+    ///    (the first step is the Taylor start `x1 = x0 + v0 dt + a dt^2 / 2`, with `v0 dt` given
+    ///    by `x0 - x_prev`, which makes the scheme exact for constant acceleration);
     ///    normal force and Coulomb friction (eq. 3.4-3.5), all in one pass over the rows;
     /// 4. move grabbed particles onto their targets and record the hand's force (3.2 step 3);
     /// 5. optional Provot strain limiting, then self-collision (3.1), then push anything those
@@ -301,36 +338,80 @@ impl Simulation {
         };
         let consts = StepConsts {
             grid: &self.grid,
-            colliders: &c.colliders,
+            planes: &self.planes,
+            others: &self.others,
             mass: self.mass,
-            dt,
             gravity: c.simulation.gravity,
             damp: c.cloth.damping * self.mass / dt,
             structural: c.cloth.structural_stiffness,
             shear: c.cloth.shear_stiffness,
-            rest: STENCIL.map(|n| self.grid.rest_length(n)),
+            rest_x: self.grid.dx,
+            rest_z: self.grid.dz,
+            rest_diag: self.grid.dx.hypot(self.grid.dz),
             pressure_area,
             radius: self.radius,
+            h: dt * dt / self.mass * if self.steps == 0 { 0.5 } else { 1.0 },
         };
         let nx = self.grid.nx;
         let x = &self.x;
-        (
-            self.prev.x.par_chunks_mut(nx),
-            self.prev.y.par_chunks_mut(nx),
-            self.prev.z.par_chunks_mut(nx),
-            self.force.x.par_chunks_mut(nx),
-            self.force.y.par_chunks_mut(nx),
-            self.force.z.par_chunks_mut(nx),
-            self.contact.par_chunks_mut(nx),
-        )
-            .into_par_iter()
-            .enumerate()
-            .with_min_len(ROWS_PER_TASK)
-            .for_each(|(j, (px, py, pz, fx, fy, fz, contact))| {
-                let mut prev = RowMut { x: px, y: py, z: pz };
-                let mut force = RowMut { x: fx, y: fy, z: fz };
-                step_row(&consts, j, x, &mut prev, &mut force, contact);
-            });
+        let parallel = self.parallel();
+        let rows = self.rows_per_task();
+        let (p, f) = (&mut self.prev, &mut self.force);
+        if parallel {
+            // Blocks of rows, one task each; the split never changes the result.
+            let block = nx * rows;
+            (
+                p.x.par_chunks_mut(block),
+                p.y.par_chunks_mut(block),
+                p.z.par_chunks_mut(block),
+                f.x.par_chunks_mut(block),
+                f.y.par_chunks_mut(block),
+                f.z.par_chunks_mut(block),
+                self.contact.par_chunks_mut(block),
+            )
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(b, (px, py, pz, fx, fy, fz, contact))| {
+                    THREAD_SCRATCH.with_borrow_mut(|scratch| {
+                        if !scratch.fits(nx) {
+                            *scratch = StepScratch::new(nx);
+                        }
+                        let mut prev = RowMut {
+                            x: px,
+                            y: py,
+                            z: pz,
+                        };
+                        let mut force = RowMut {
+                            x: fx,
+                            y: fy,
+                            z: fz,
+                        };
+                        let j0 = b * rows;
+                        kernels::step_rows(&consts, j0, x, &mut prev, &mut force, contact, scratch);
+                    });
+                });
+        } else {
+            let mut prev = RowMut {
+                x: &mut p.x,
+                y: &mut p.y,
+                z: &mut p.z,
+            };
+            let mut force = RowMut {
+                x: &mut f.x,
+                y: &mut f.y,
+                z: &mut f.z,
+            };
+            let scratch = &mut self.step_scratch;
+            kernels::step_rows(
+                &consts,
+                0,
+                x,
+                &mut prev,
+                &mut force,
+                &mut self.contact,
+                scratch,
+            );
+        }
         std::mem::swap(&mut self.x, &mut self.prev);
 
         // 4. Grabs: cancel the particle's own motion, carry it to its target, and record the
@@ -393,45 +474,28 @@ impl Simulation {
     /// Recomputes the bubble volume of the current state and checks for non-finite positions
     /// and over-stretched structural springs, in one pass over the rows.
     fn update_air_and_check(&mut self) -> Result<(), StepError> {
-        let (grid, x, sticking) = (&self.grid, &self.x, self.sticking);
-        let offset = self.radius;
-        let (rx, rz) = (grid.dx * grid.dx, grid.dz * grid.dz);
-        self.row_volume
-            .par_iter_mut()
-            .zip(self.row_stretch.par_iter_mut())
-            .enumerate()
-            .with_min_len(ROWS_PER_TASK)
-            .for_each(|(j, (vol, stretch))| {
-                *vol = match sticking {
-                    Some(plane) if j + 1 < grid.nz => air::row_volume(grid, x, j, plane, offset),
-                    _ => 0.0,
-                };
-                // Largest squared length ratio of this row's structural springs (to the right
-                // and to the next row); NaN positions make it NaN.
-                let mut worst: Real = 0.0;
-                for i in 0..grid.nx {
-                    let k = grid.index(i, j);
-                    let p = x.get(k);
-                    if !p.is_finite() {
-                        worst = Real::NAN;
-                        break;
-                    }
-                    if i + 1 < grid.nx {
-                        worst = worst.max((x.get(k + 1) - p).length_squared() / rx);
-                    }
-                    if j + 1 < grid.nz {
-                        worst = worst.max((x.get(k + grid.nx) - p).length_squared() / rz);
-                    }
-                }
-                *stretch = worst;
-            });
+        let parallel = self.parallel();
+        let (grid, x, sticking, offset) = (&self.grid, &self.x, self.sticking, self.radius);
+        let check = |(j, out): (usize, &mut RowCheck)| {
+            *out = kernels::check_row(grid, x, j, sticking, offset);
+        };
+        if parallel {
+            let rows = self.rows_per_task();
+            self.row_checks
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(rows)
+                .for_each(check);
+        } else {
+            self.row_checks.iter_mut().enumerate().for_each(check);
+        }
         let time = self.time();
         let mut worst: Real = 0.0;
-        for s in &self.row_stretch {
-            if s.is_nan() {
+        for r in &self.row_checks {
+            if !r.finite_probe.is_finite() || r.stretch2.is_nan() {
                 return Err(StepError::NonFinite { time });
             }
-            worst = worst.max(*s);
+            worst = worst.max(r.stretch2);
         }
         if worst > BLOWUP_STRETCH * BLOWUP_STRETCH {
             return Err(StepError::OverStretch {
@@ -440,82 +504,46 @@ impl Simulation {
                 limit: BLOWUP_STRETCH,
             });
         }
-        self.volume = self.row_volume.iter().sum();
+        self.volume = self.row_checks.iter().map(|r| r.volume).sum();
         Ok(())
+    }
+
+    /// Whether the row passes go to the thread pool (results are identical either way).
+    fn parallel(&self) -> bool {
+        let inside = rayon::current_thread_index().is_some();
+        let min = if inside {
+            PARALLEL_MIN_PARTICLES_IN_POOL
+        } else {
+            PARALLEL_MIN_PARTICLES
+        };
+        self.grid.len() >= min && rayon::current_num_threads() > 1
+    }
+
+    /// Rows per parallel task: two tasks per thread (so a briefly descheduled thread does not
+    /// hold the step up), at least [`MIN_ROWS_PER_TASK`].
+    fn rows_per_task(&self) -> usize {
+        let tasks = 2 * rayon::current_num_threads();
+        self.grid.nz.div_ceil(tasks).max(MIN_ROWS_PER_TASK)
+    }
+
+    /// Takes `steps` steps (see [`Simulation::step`]), on the thread pool when the cloth is big
+    /// enough to share out: the whole loop runs inside the pool, so each step's parallel passes
+    /// cost tens of nanoseconds to start instead of microseconds. Stops at the first error.
+    pub fn advance(&mut self, steps: u64) -> Result<(), StepError> {
+        let pooled = rayon::current_num_threads() > 1
+            && rayon::current_thread_index().is_none()
+            && self.grid.len() >= PARALLEL_MIN_PARTICLES_IN_POOL;
+        let run = |sim: &mut Self| (0..steps).try_for_each(|_| sim.step());
+        if pooled {
+            rayon::scope(|_| run(self))
+        } else {
+            run(self)
+        }
     }
 }
 
-/// Steps one row of particles (phases 2-3): forces, Verlet, contacts. Reads the current
-/// positions of rows `j - 1 ..= j + 1`, and overwrites the row's previous positions with the
-/// new ones.
-#[inline]
-fn step_row(
-    c: &StepConsts<'_>,
-    j: usize,
-    x: &Soa,
-    prev: &mut RowMut<'_>,
-    force: &mut RowMut<'_>,
-    contact: &mut [bool],
-) {
-    let grid = c.grid;
-    let nx = grid.nx;
-    let row = |r: usize| RowRef {
-        x: &x.x[r * nx..(r + 1) * nx],
-        y: &x.y[r * nx..(r + 1) * nx],
-        z: &x.z[r * nx..(r + 1) * nx],
-    };
-    let here = row(j);
-    let weight = c.gravity * c.mass;
-
-    // Gravity and velocity damping.
-    for i in 0..nx {
-        force.x[i] = weight.x - c.damp * (here.x[i] - prev.x[i]);
-        force.y[i] = weight.y - c.damp * (here.y[i] - prev.y[i]);
-        force.z[i] = weight.z - c.damp * (here.z[i] - prev.z[i]);
-    }
-
-    // Springs, one stencil direction at a time over the run of the row that has that neighbour.
-    for (n, &rest) in STENCIL.iter().zip(&c.rest) {
-        let jj = j as isize + n.dj;
-        if jj < 0 || jj >= grid.nz as isize {
-            continue;
-        }
-        let i0 = (-n.di).max(0) as usize;
-        let len = nx - n.di.unsigned_abs();
-        let k = if n.structural { c.structural } else { c.shear };
-        let a = here.slice(i0, len);
-        let b = row(jj as usize).slice((i0 as isize + n.di) as usize, len);
-        crate::forces::add_springs(force, i0, a, b, k, rest);
-    }
-
-    // Pressure force along the cloth normal.
-    if c.pressure_area != 0.0 {
-        for i in 0..nx {
-            let f = crate::forces::pressure_force(
-                c.pressure_area,
-                0.0,
-                1.0,
-                grid.normal(x, grid.index(i, j)),
-            );
-            force.x[i] += f.x;
-            force.y[i] += f.y;
-            force.z[i] += f.z;
-        }
-    }
-
-    // Position Verlet (eq. 3.1) and contacts.
-    let h = c.dt * c.dt / c.mass;
-    for i in 0..nx {
-        let now = Vec3::new(here.x[i], here.y[i], here.z[i]);
-        let before = Vec3::new(prev.x[i], prev.y[i], prev.z[i]);
-        let f = Vec3::new(force.x[i], force.y[i], force.z[i]);
-        // Written as x + (x - x_prev) + F dt^2 / m: the step is added to x, not to 2x, which
-        // halves the round-off for slow particles.
-        let next = now + (now - before) + f * h;
-        let (next, hit) = contact::resolve(c.colliders, now, next, c.radius);
-        prev.x[i] = next.x;
-        prev.y[i] = next.y;
-        prev.z[i] = next.z;
-        contact[i] = hit;
-    }
+thread_local! {
+    /// Spring scratch of a pool thread, sized on first use (no allocation in later steps).
+    static THREAD_SCRATCH: std::cell::RefCell<StepScratch> =
+        std::cell::RefCell::new(StepScratch::default());
 }

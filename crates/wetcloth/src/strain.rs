@@ -64,9 +64,15 @@ pub fn limit_strain(
         if corrected == 0 {
             break;
         }
-        p.x.par_iter_mut().zip(&scratch.x).for_each(|(a, b)| *a += b);
-        p.y.par_iter_mut().zip(&scratch.y).for_each(|(a, b)| *a += b);
-        p.z.par_iter_mut().zip(&scratch.z).for_each(|(a, b)| *a += b);
+        p.x.par_iter_mut()
+            .zip(&scratch.x)
+            .for_each(|(a, b)| *a += b);
+        p.y.par_iter_mut()
+            .zip(&scratch.y)
+            .for_each(|(a, b)| *a += b);
+        p.z.par_iter_mut()
+            .zip(&scratch.z)
+            .for_each(|(a, b)| *a += b);
     }
     first
 }

@@ -1,0 +1,230 @@
+//! `wetcloth bench`: simulation speed on the thesis workload, the counterpart of the thesis'
+//! table 4.2 (frame rate against particle count, one step per drawn frame).
+//!
+//! Each measurement builds [`wetcloth::bench::thesis_workload`] (the thesis' spacing and
+//! particle mass, everything on, a cloth settling onto a plane) in a thread pool of the
+//! requested size, lets it run for a warm-up, then times consecutive windows of
+//! [`Simulation::advance`], the same stepping `run` and the viewer use, and reports the median
+//! window. Medians, because a shared machine's timings have long upper tails.
+
+use crate::error::CliError;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+use wetcloth::Simulation;
+use wetcloth::bench::thesis_workload;
+
+/// The thesis' table 4.2: particles and frames per second (one step per frame, Core i7-3930K).
+pub const THESIS_TABLE_4_2: [(usize, f64); 5] = [
+    (100, 1720.0),
+    (400, 500.0),
+    (900, 210.0),
+    (1600, 115.0),
+    (2500, 64.0),
+];
+
+/// Timed windows per measurement; the median is reported.
+const WINDOWS: u32 = 7;
+
+/// Arguments of `wetcloth bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Cloth sizes, in particles per side, comma separated. Default: the thesis' table 4.2
+    /// (10, 20, 30, 40, 50: 100 to 2500 particles) and larger (100, 200: 10 000 and 40 000).
+    #[arg(long, value_delimiter = ',', value_name = "N,N,...",
+          value_parser = clap::value_parser!(u32).range(2..=4096))]
+    pub sizes: Option<Vec<u32>>,
+
+    /// Thread counts to measure with, comma separated. Default: 1 and all cores.
+    #[arg(long, value_delimiter = ',', value_name = "T,T,...",
+          value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<Vec<u32>>,
+
+    /// Seconds of timed windows per measurement (after a warm-up of a fifth of that).
+    #[arg(long, default_value_t = 2.0, value_name = "S",
+          value_parser = parse_seconds)]
+    pub seconds: f64,
+
+    /// Also write the results as JSON: a list of objects with `particles`, `threads`,
+    /// `steps_per_second`, `particle_steps_per_second`, `real_time_factor` and more.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+
+    /// Measure with self-collision off (to see what it costs).
+    #[arg(long)]
+    pub no_self_collision: bool,
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of seconds"))?;
+    if v.is_finite() && (0.01..=3600.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{s} is out of range: allowed [0.01, 3600] s"))
+    }
+}
+
+/// One measurement.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Measurement {
+    /// Particles in the cloth.
+    pub particles: usize,
+    /// Particles per side.
+    pub side: usize,
+    /// Worker threads.
+    pub threads: usize,
+    /// Median steps per second.
+    pub steps_per_second: f64,
+    /// `steps_per_second * particles`.
+    pub particle_steps_per_second: f64,
+    /// Simulated seconds per wall second: `steps_per_second * time_step`.
+    pub real_time_factor: f64,
+    /// The time step, s.
+    pub time_step: f64,
+    /// Whether self-collision was on.
+    pub self_collision: bool,
+    /// Fastest and slowest window, steps per second.
+    pub steps_per_second_range: [f64; 2],
+    /// Timed windows.
+    pub windows: u32,
+    /// Steps in the timed windows.
+    pub steps: u64,
+    /// The thesis' frame rate for this particle count (table 4.2), if it lists it.
+    pub thesis_steps_per_second: Option<f64>,
+}
+
+/// Runs `wetcloth bench`.
+pub fn bench(args: &BenchArgs, quiet: bool) -> Result<(), CliError> {
+    let sizes: Vec<usize> = args.sizes.clone().map_or_else(
+        || vec![10, 20, 30, 40, 50, 100, 200],
+        |v| v.into_iter().map(|s| s as usize).collect(),
+    );
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut threads: Vec<usize> = args.threads.clone().map_or_else(
+        || vec![1, cores],
+        |v| v.into_iter().map(|t| t as usize).collect(),
+    );
+    threads.dedup();
+
+    let total = sizes.len() * threads.len();
+    let bar = if quiet || !std::io::stderr().is_terminal() {
+        ProgressBar::hidden()
+    } else {
+        let b = ProgressBar::new(total as u64);
+        b.set_style(
+            ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}").expect("valid template"),
+        );
+        b
+    };
+    let mut results = Vec::with_capacity(total);
+    for &side in &sizes {
+        for &t in &threads {
+            bar.set_message(format!("{side} x {side}, {t} thread(s)"));
+            results.push(measure(side, t, args.seconds, !args.no_self_collision)?);
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+
+    if !quiet {
+        print_table(&results);
+    }
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&results).expect("plain data serialises");
+        std::fs::write(path, text + "\n").map_err(CliError::output(path))?;
+    }
+    Ok(())
+}
+
+/// Times the workload of `side x side` particles on `threads` threads.
+fn measure(
+    side: usize,
+    threads: usize,
+    seconds: f64,
+    self_collision: bool,
+) -> Result<Measurement, CliError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| CliError::Setup(format!("cannot start {threads} threads: {e}")))?;
+    let mut cfg = thesis_workload(side);
+    cfg.cloth.self_collision = self_collision;
+    let dt = cfg.simulation.time_step;
+    let particles = side * side;
+    pool.install(|| {
+        let mut sim = Simulation::new(cfg).map_err(|e| CliError::Setup(e.to_string()))?;
+        let blow_up = |error| CliError::BlowUp {
+            error,
+            frames: 0,
+            dir: PathBuf::from("."),
+        };
+        // Warm-up: also calibrates how many steps fill one window.
+        let warm = Duration::from_secs_f64(seconds / 5.0);
+        let start = Instant::now();
+        let mut steps = 0u64;
+        let mut chunk = 16u64;
+        while start.elapsed() < warm {
+            sim.advance(chunk).map_err(blow_up)?;
+            steps += chunk;
+            chunk = (chunk * 2).min(4096);
+        }
+        let rate = steps as f64 / start.elapsed().as_secs_f64();
+        let per_window = ((rate * seconds / WINDOWS as f64) as u64).max(1);
+        let mut rates = Vec::with_capacity(WINDOWS as usize);
+        for _ in 0..WINDOWS {
+            let t = Instant::now();
+            sim.advance(per_window).map_err(blow_up)?;
+            rates.push(per_window as f64 / t.elapsed().as_secs_f64());
+        }
+        rates.sort_by(f64::total_cmp);
+        let median = rates[rates.len() / 2];
+        Ok(Measurement {
+            particles,
+            side,
+            threads,
+            steps_per_second: median,
+            particle_steps_per_second: median * particles as f64,
+            real_time_factor: median * dt,
+            time_step: dt,
+            self_collision,
+            steps_per_second_range: [rates[0], rates[rates.len() - 1]],
+            windows: WINDOWS,
+            steps: per_window * WINDOWS as u64,
+            thesis_steps_per_second: THESIS_TABLE_4_2
+                .iter()
+                .find(|(n, _)| *n == particles)
+                .map(|(_, fps)| *fps),
+        })
+    })
+}
+
+fn print_table(results: &[Measurement]) {
+    println!(
+        "{:>9} {:>7} {:>12} {:>16} {:>10} {:>14}",
+        "particles", "threads", "steps/s", "particle-steps/s", "real-time", "thesis steps/s"
+    );
+    for m in results {
+        println!(
+            "{:>9} {:>7} {:>12.0} {:>16.3e} {:>9.2}x {:>14}",
+            m.particles,
+            m.threads,
+            m.steps_per_second,
+            m.particle_steps_per_second,
+            m.real_time_factor,
+            m.thesis_steps_per_second
+                .map_or_else(|| "-".to_string(), |v| format!("{v:.0}"))
+        );
+    }
+    if let Some(m) = results.first() {
+        println!(
+            "(median of {} windows each; time step {:.4e} s; self-collision {})",
+            m.windows,
+            m.time_step,
+            if m.self_collision { "on" } else { "off" }
+        );
+    }
+}

@@ -1,0 +1,49 @@
+//! What can go wrong in a subcommand, and the exit code for each.
+
+use std::path::PathBuf;
+
+/// A failed subcommand. The message is printed on stderr after `error: `.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// Bad input: a scene file that cannot be read or is invalid. Exit code 2.
+    #[error("{0}")]
+    Scene(#[from] wetcloth_scene::SceneError),
+    /// The simulation blew up. Exit code 1.
+    #[error("{error}\n  the {frames} frame(s) and metrics rows written before it are in {}", dir.display())]
+    BlowUp {
+        /// The core's error: names the simulated time and suggests a smaller time step.
+        error: wetcloth::StepError,
+        /// Frames written before it.
+        frames: u64,
+        /// The output directory.
+        dir: PathBuf,
+    },
+    /// The run could not be set up (threads, an invalid built-in configuration). Exit code 1.
+    #[error("{0}")]
+    Setup(String),
+    /// An output could not be written. Exit code 1.
+    #[error("cannot write {}: {source}", path.display())]
+    Output {
+        /// The file or directory.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl CliError {
+    /// The process exit code: 2 for bad input, 1 for a failed run.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            CliError::Scene(_) => 2,
+            CliError::BlowUp { .. } | CliError::Output { .. } | CliError::Setup(_) => 1,
+        }
+    }
+
+    /// An output error at `path`.
+    pub fn output(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> CliError {
+        let path = path.into();
+        move |source| CliError::Output { path, source }
+    }
+}

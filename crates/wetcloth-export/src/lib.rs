@@ -1,0 +1,57 @@
+//! # wetcloth-export: what a run writes
+//!
+//! Writers for the files of a run directory, each to any [`std::io::Write`], with no physics:
+//!
+//! - [`write_obj`]: one frame of the cloth as a Wavefront OBJ mesh (Y-up, metres, with UVs and
+//!   normals; vertex `k` is particle `k` in every frame, so Blender can import a sequence);
+//! - [`MetricsCsv`]: `metrics.csv`, one row per written frame, columns [`CSV_HEADER`];
+//! - [`RunInfo`] and [`write_run_json`]: `run.json`, what a renderer needs to know about the
+//!   run (the cloth's layout, the colliders, the grabbed particles, the frame count).
+//!
+//! Every number is written by [`number`]: the shortest text that parses back to the same `f64`
+//! (nothing is rounded), in scientific notation when very small or very large so that
+//! `1e-20` does not become twenty zeros.
+
+mod csv;
+mod obj;
+mod run_json;
+
+pub use csv::{CSV_HEADER, MetricsCsv, csv_header};
+pub use obj::write_obj;
+pub use run_json::{ColliderInfo, RunInfo, write_run_json};
+
+/// `v` as the shortest decimal text that parses back to the same value (Rust's `{:?}`
+/// formatting of `f64`: `0.1`, `101325.0`, `1.5e-20`).
+pub fn number(v: f64) -> String {
+    format!("{v:?}")
+}
+
+/// Name of the OBJ file of frame `frame`: `frame_NNNN.obj`, zero-padded to 4 digits (more when
+/// the frame number needs them).
+pub fn frame_file_name(frame: u64) -> String {
+    format!("frame_{frame:04}.obj")
+}
+
+/// Whether `name` is a frame file name as [`frame_file_name`] writes it.
+pub fn is_frame_file_name(name: &str) -> bool {
+    name.strip_prefix("frame_")
+        .and_then(|s| s.strip_suffix(".obj"))
+        .is_some_and(|n| n.len() >= 4 && n.bytes().all(|b| b.is_ascii_digit()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_names_are_zero_padded_and_recognised() {
+        assert_eq!(frame_file_name(0), "frame_0000.obj");
+        assert_eq!(frame_file_name(42), "frame_0042.obj");
+        assert_eq!(frame_file_name(12345), "frame_12345.obj");
+        assert!(is_frame_file_name("frame_0042.obj"));
+        assert!(is_frame_file_name("frame_12345.obj"));
+        assert!(!is_frame_file_name("frame_42.obj"));
+        assert!(!is_frame_file_name("frame_0042.obj.bak"));
+        assert!(!is_frame_file_name("render_0042.obj"));
+    }
+}

@@ -1,0 +1,269 @@
+//! The scene format's keys, and the walk over a parsed document that finds unknown keys and maps
+//! key paths (`cloth.mass`, `collider[0].friction`) to spans and back.
+
+use std::ops::Range;
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+/// Keys at the top level of a scene file.
+pub const TOP: &[&str] = &["name", "simulation", "cloth", "air", "collider", "grab"];
+/// Keys of `[simulation]`.
+pub const SIMULATION: &[&str] = &[
+    "duration",
+    "time_step",
+    "integrator",
+    "frame_rate",
+    "gravity",
+];
+/// Keys of `[cloth]`.
+pub const CLOTH: &[&str] = &[
+    "size",
+    "resolution",
+    "position",
+    "mass",
+    "structural_stiffness",
+    "shear_stiffness",
+    "damping",
+    "thickness",
+    "collision_margin",
+    "self_collision",
+    "strain_limit",
+    "strain_limit_iterations",
+];
+/// Keys of `[air]`.
+pub const AIR: &[&str] = &["enabled", "atmospheric_pressure", "trapped_air"];
+/// Keys of a `[[collider]]`, all shapes together.
+pub const COLLIDER: &[&str] = &[
+    "shape",
+    "point",
+    "normal",
+    "center",
+    "radius",
+    "half_extents",
+    "friction",
+];
+/// Keys of a `[[grab]]`.
+pub const GRAB: &[&str] = &["particle", "keys"];
+/// Keys of one grab key (`keys = [{ time = ..., offset = [...] }]`).
+pub const GRAB_KEY: &[&str] = &["time", "offset"];
+
+/// Where a table sits in the format, for its list of valid keys.
+#[derive(Clone, Copy)]
+enum Place {
+    Top,
+    Simulation,
+    Cloth,
+    Air,
+    Collider,
+    Grab,
+    GrabKey,
+}
+
+impl Place {
+    fn keys(self) -> &'static [&'static str] {
+        match self {
+            Place::Top => TOP,
+            Place::Simulation => SIMULATION,
+            Place::Cloth => CLOTH,
+            Place::Air => AIR,
+            Place::Collider => COLLIDER,
+            Place::Grab => GRAB,
+            Place::GrabKey => GRAB_KEY,
+        }
+    }
+
+    /// The place of the tables found under `key` in this table (directly or as array items).
+    fn child(self, key: &str) -> Option<Place> {
+        match (self, key) {
+            (Place::Top, "simulation") => Some(Place::Simulation),
+            (Place::Top, "cloth") => Some(Place::Cloth),
+            (Place::Top, "air") => Some(Place::Air),
+            (Place::Top, "collider") => Some(Place::Collider),
+            (Place::Top, "grab") => Some(Place::Grab),
+            (Place::Grab, "keys") => Some(Place::GrabKey),
+            _ => None,
+        }
+    }
+
+    fn prefix(self) -> &'static str {
+        match self {
+            Place::Top => "",
+            Place::Simulation => "simulation.",
+            Place::Cloth => "cloth.",
+            Place::Air => "air.",
+            Place::Collider => "collider[].",
+            Place::Grab => "grab[].",
+            Place::GrabKey => "grab[].keys[].",
+        }
+    }
+}
+
+const ALL_PLACES: [Place; 7] = [
+    Place::Top,
+    Place::Simulation,
+    Place::Cloth,
+    Place::Air,
+    Place::Collider,
+    Place::Grab,
+    Place::GrabKey,
+];
+
+/// An unknown key found in a document.
+pub struct Unknown {
+    /// Full key path.
+    pub key: String,
+    /// Span of the key in the text.
+    pub span: Range<usize>,
+    /// Closest valid key at the same place, or the full path of a key of that name elsewhere.
+    pub suggestion: Option<String>,
+    /// Valid keys at that place.
+    pub valid: &'static [&'static str],
+}
+
+/// The closest of `valid` to `key` (Jaro-Winkler similarity at least 0.8), or a valid key that
+/// contains it, or the full path of a key with exactly that name at another place (`mass` at the
+/// top level -> `cloth.mass`).
+fn suggest(key: &str, valid: &[&str]) -> Option<String> {
+    let best = valid
+        .iter()
+        .map(|v| (strsim::jaro_winkler(key, v), *v))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some((score, v)) = best
+        && score >= 0.8
+    {
+        return Some(v.to_string());
+    }
+    // A part of a longer key (`stiffness` -> `structural_stiffness`).
+    if key.len() >= 4
+        && let Some(v) = valid.iter().find(|v| v.contains(key))
+    {
+        return Some(v.to_string());
+    }
+    ALL_PLACES
+        .iter()
+        .find(|p| p.keys().contains(&key))
+        .map(|p| format!("{}{key}", p.prefix()))
+}
+
+/// The first unknown key of the document, in file order.
+pub fn find_unknown(doc: &DeTable<'_>) -> Option<Unknown> {
+    let mut found = Vec::new();
+    walk_table(doc, Place::Top, "", &mut found);
+    found.into_iter().min_by_key(|u| u.span.start)
+}
+
+fn walk_table(table: &DeTable<'_>, place: Place, path: &str, found: &mut Vec<Unknown>) {
+    let valid = place.keys();
+    for (k, v) in table.iter() {
+        let name: &str = k.get_ref();
+        let full = format!("{path}{name}");
+        if !valid.contains(&name) {
+            found.push(Unknown {
+                suggestion: suggest(name, valid),
+                key: full,
+                span: k.span(),
+                valid,
+            });
+            continue;
+        }
+        let Some(child) = place.child(name) else {
+            continue;
+        };
+        match v.get_ref() {
+            DeValue::Table(t) => walk_table(t, child, &format!("{full}."), found),
+            DeValue::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    if let DeValue::Table(t) = item.get_ref() {
+                        walk_table(t, child, &format!("{full}[{i}]."), found);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// One segment of a key path: a key and an optional array index (`collider[0]`).
+fn segments(path: &str) -> Vec<(&str, Option<usize>)> {
+    path.split('.')
+        .map(|seg| match seg.split_once('[') {
+            Some((k, rest)) => (k, rest.trim_end_matches(']').parse().ok()),
+            None => (seg, None),
+        })
+        .collect()
+}
+
+/// Span of the value at key path `path` and `true`; or, when the key is not in the document, the
+/// span of the deepest part of the path that is (the table that lacks the key) and `false`; or
+/// `None` when not even the first key is in the document.
+pub fn locate(doc: &Spanned<DeTable<'_>>, path: &str) -> Option<(Range<usize>, bool)> {
+    let mut table = doc.get_ref();
+    let mut found: Option<Range<usize>> = None;
+    let segs = segments(path);
+    for (n, (key, index)) in segs.iter().enumerate() {
+        let last = n + 1 == segs.len();
+        let Some((_, value)) = table.iter().find(|(k, _)| k.get_ref() == key) else {
+            return found.map(|s| (s, false));
+        };
+        let mut value: &Spanned<DeValue<'_>> = value;
+        found = Some(value.span());
+        if let Some(i) = *index {
+            match value.get_ref() {
+                DeValue::Array(items) if i < items.len() => {
+                    value = &items[i];
+                    found = Some(value.span());
+                }
+                _ => return found.map(|s| (s, false)),
+            }
+        }
+        if last {
+            return found.map(|s| (s, true));
+        }
+        match value.get_ref() {
+            DeValue::Table(t) => table = t,
+            _ => return found.map(|s| (s, false)),
+        }
+    }
+    found.map(|s| (s, false))
+}
+
+/// The key path of the innermost key or value whose span contains byte `offset`, indexing
+/// arrays of tables (`grab[0].keys[1].time`) but not arrays of numbers (`cloth.size`).
+///
+/// Spans of tables opened by a header (`[cloth]`) cover only the header, so every key and value
+/// of the document is a candidate and the smallest span that contains `offset` wins.
+pub fn path_at(doc: &DeTable<'_>, offset: usize) -> Option<String> {
+    let mut best: Option<(usize, String)> = None;
+    candidates(doc, "", offset, &mut best);
+    best.map(|(_, p)| p)
+}
+
+fn consider(span: Range<usize>, path: &str, offset: usize, best: &mut Option<(usize, String)>) {
+    let inside = span.start <= offset && offset < span.end.max(span.start + 1);
+    let len = span.len();
+    // On a tie the later, deeper candidate (an array item rather than the array) wins.
+    if inside && best.as_ref().is_none_or(|(l, _)| len <= *l) {
+        *best = Some((len, path.to_string()));
+    }
+}
+
+fn candidates(table: &DeTable<'_>, path: &str, offset: usize, best: &mut Option<(usize, String)>) {
+    for (k, v) in table.iter() {
+        let full = format!("{path}{}", k.get_ref());
+        consider(k.span(), &full, offset, best);
+        consider(v.span(), &full, offset, best);
+        match v.get_ref() {
+            DeValue::Table(t) => candidates(t, &format!("{full}."), offset, best),
+            DeValue::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    if let DeValue::Table(t) = item.get_ref() {
+                        let p = format!("{full}[{i}]");
+                        consider(item.span(), &p, offset, best);
+                        candidates(t, &format!("{p}."), offset, best);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,132 @@
+//! # wetcloth-scene: scene files for wetcloth
+//!
+//! A scene file is TOML and says everything a run needs: a `name`, `[simulation]`, `[cloth]`,
+//! `[air]`, any number of `[[collider]]` and `[[grab]]`. Every field of the core's parameter
+//! structs ([`wetcloth::SimulationParams`], [`wetcloth::ClothParams`], [`wetcloth::AirParams`])
+//! is a key of the same name, and a missing key takes the core's default. The format is
+//! described key by key in `docs/scene-format.md`.
+//!
+//! [`load`] and [`parse`] turn a file into a [`Scene`]; every error ([`SceneError`]) names the
+//! file, line and column, the key, the value and what is allowed, and suggests the closest key
+//! for a misspelt one. [`to_toml`] writes a configuration back with every key explicit, so a
+//! run can record exactly what ran; it parses back to the same configuration.
+//!
+//! ```
+//! let text = "[cloth]\nresolution = [8, 8]\n";
+//! let scene = wetcloth_scene::parse(text, "small.toml".as_ref()).unwrap();
+//! assert_eq!(scene.name, "small");
+//! assert_eq!(scene.config.cloth.resolution, [8, 8]);
+//! assert_eq!(scene.config.cloth.mass, wetcloth::ClothParams::default().mass);
+//!
+//! let err = wetcloth_scene::parse("[cloth]\nmass = -1\n", "bad.toml".as_ref()).unwrap_err();
+//! assert!(err.to_string().starts_with("bad.toml:2:8: cloth.mass = -1 is out of range"));
+//! ```
+
+mod error;
+mod keys;
+mod raw;
+mod write;
+
+pub use error::{Location, SceneError};
+pub use write::to_toml;
+
+use std::path::Path;
+use wetcloth::{ConfigError, SimConfig};
+
+/// Name of the built-in default scene, [`Scene::thesis_demo`].
+pub const THESIS_DEMO_NAME: &str = "thesis-demo";
+
+/// A scene: its name and the simulation configuration it describes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The scene's name (`name = "..."`, or the file stem when absent). Letters, digits, `-`,
+    /// `_` and `.`, not starting with `.`: it names the output directory of a run.
+    pub name: String,
+    /// The validated configuration.
+    pub config: SimConfig,
+    /// The file and text the scene came from, to locate errors found later.
+    source: Option<(String, String)>,
+}
+
+impl Scene {
+    /// The built-in default: [`SimConfig::thesis_demo`] named [`THESIS_DEMO_NAME`].
+    pub fn thesis_demo() -> Self {
+        Self {
+            name: THESIS_DEMO_NAME.to_string(),
+            config: SimConfig::thesis_demo(),
+            source: None,
+        }
+    }
+
+    /// A scene from a configuration built in code (not validated here).
+    pub fn new(name: impl Into<String>, config: SimConfig) -> Self {
+        Self {
+            name: name.into(),
+            config,
+            source: None,
+        }
+    }
+
+    /// The scene with every key explicit, as [`to_toml`] writes it.
+    pub fn to_toml(&self) -> String {
+        to_toml(&self.name, &self.config)
+    }
+
+    /// Turns a [`ConfigError`] about this scene's configuration (from [`SimConfig::validate`] or
+    /// [`wetcloth::Simulation::new`]) into a [`SceneError`] that points at the key in the file.
+    pub fn locate(&self, err: &ConfigError) -> SceneError {
+        match &self.source {
+            Some((file, text)) => match toml::de::DeTable::parse(text) {
+                Ok(doc) => raw::config_error(file, text, &doc, err),
+                Err(_) => raw::config_error_unplaced(file, err),
+            },
+            None => raw::config_error_unplaced(&format!("scene `{}`", self.name), err),
+        }
+    }
+}
+
+/// Reads and validates the scene file at `path`. The scene's name defaults to the file stem.
+pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+        path: path.display().to_string(),
+        source,
+    })?;
+    parse(&text, path)
+}
+
+/// Parses and validates scene text. `file` names the text in error messages, and its stem is the
+/// scene's name when the text has no `name` key.
+pub fn parse(text: &str, file: &Path) -> Result<Scene, SceneError> {
+    let file_label = file.display().to_string();
+    let default_name = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".to_string());
+    let (name, config) = raw::parse(text, &file_label, &default_name)?;
+    let scene = Scene {
+        name,
+        config,
+        source: Some((file_label, text.to_string())),
+    };
+    scene
+        .config
+        .validate()
+        .map_err(|e| scene.locate(&e))
+        .map(|()| scene)
+}
+
+/// Checks a scene name: letters, digits, `-`, `_` and `.`, not empty and not starting with `.`
+/// (it becomes a directory name). Returns what is wrong.
+pub fn check_name(name: &str) -> Result<(), String> {
+    let ok_char = |c: char| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.');
+    if name.is_empty() || name.starts_with('.') || !name.chars().all(ok_char) {
+        Err(
+            "a scene name must be non-empty, use only letters, digits, '-', '_' and '.', and \
+             not start with '.' (it names the output directory)"
+                .to_string(),
+        )
+    } else {
+        Ok(())
+    }
+}

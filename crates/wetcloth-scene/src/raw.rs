@@ -1,0 +1,509 @@
+//! The scene file as written (every key optional), its conversion to a [`SimConfig`], and the
+//! mapping of every error back to a place in the file.
+
+use crate::error::{Location, SceneError};
+use crate::keys;
+use serde::Deserialize;
+use std::ops::Range;
+use toml::Spanned;
+use toml::de::DeTable;
+use wetcloth::{
+    AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator, Real, Shape,
+    SimConfig, SimulationParams, Vec3,
+};
+
+/// A fixed-length array that, unlike `[T; N]`, refuses extra elements.
+struct Arr<T, const N: usize>([T; N]);
+
+impl<'de, T: Deserialize<'de>, const N: usize> Deserialize<'de> for Arr<T, N> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Vec::<T>::deserialize(d)?;
+        let len = v.len();
+        v.try_into().map(Arr).map_err(|_| {
+            serde::de::Error::invalid_length(len, &format!("an array of {N} elements").as_str())
+        })
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: Option<Spanned<String>>,
+    simulation: Option<RawSimulation>,
+    cloth: Option<RawCloth>,
+    air: Option<RawAir>,
+    collider: Option<Vec<Spanned<RawCollider>>>,
+    #[serde(default)]
+    grab: Vec<RawGrab>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSimulation {
+    duration: Option<Real>,
+    time_step: Option<Real>,
+    integrator: Option<Spanned<String>>,
+    frame_rate: Option<Real>,
+    gravity: Option<Arr<Real, 3>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCloth {
+    size: Option<Arr<Real, 2>>,
+    resolution: Option<Arr<usize, 2>>,
+    position: Option<Arr<Real, 3>>,
+    mass: Option<Real>,
+    structural_stiffness: Option<Real>,
+    shear_stiffness: Option<Real>,
+    damping: Option<Real>,
+    thickness: Option<Real>,
+    collision_margin: Option<Real>,
+    self_collision: Option<bool>,
+    strain_limit: Option<Real>,
+    strain_limit_iterations: Option<usize>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAir {
+    enabled: Option<bool>,
+    atmospheric_pressure: Option<Real>,
+    trapped_air: Option<Real>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCollider {
+    shape: Spanned<String>,
+    point: Option<Spanned<Arr<Real, 3>>>,
+    normal: Option<Spanned<Arr<Real, 3>>>,
+    center: Option<Spanned<Arr<Real, 3>>>,
+    radius: Option<Spanned<Real>>,
+    half_extents: Option<Spanned<Arr<Real, 3>>>,
+    friction: Option<Real>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGrab {
+    particle: Arr<usize, 2>,
+    keys: Vec<RawGrabKey>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGrabKey {
+    time: Real,
+    offset: Arr<Real, 3>,
+}
+
+/// Default Coulomb friction of a collider without a `friction` key.
+pub const DEFAULT_FRICTION: Real = 0.6;
+
+/// The collider of a scene without `[[collider]]`: the ground, a plane through the origin facing
+/// +Y with the default friction.
+pub fn default_ground() -> Collider {
+    Collider::plane(Vec3::ZERO, Vec3::Y, DEFAULT_FRICTION)
+}
+
+/// The collider shapes a scene may name.
+pub const SHAPES: [&str; 3] = ["plane", "sphere", "box"];
+
+/// Context for building errors that point into the text.
+struct Ctx<'a> {
+    file: &'a str,
+    text: &'a str,
+}
+
+impl Ctx<'_> {
+    fn at(&self, span: Range<usize>) -> Box<Location> {
+        Box::new(Location::of_span(self.file, self.text, span))
+    }
+
+    fn raw(&self, span: &Range<usize>) -> String {
+        self.text
+            .get(span.clone())
+            .unwrap_or("?")
+            .trim()
+            .to_string()
+    }
+}
+
+/// Parses `text` into the scene's name and configuration (not yet range-checked).
+pub fn parse(
+    text: &str,
+    file: &str,
+    default_name: &str,
+) -> Result<(String, SimConfig), SceneError> {
+    let cx = Ctx { file, text };
+    let doc = DeTable::parse(text).map_err(|e| SceneError::Syntax {
+        at: e
+            .span()
+            .map_or_else(|| Box::new(Location::file_only(file)), |s| cx.at(s)),
+        message: e.message().trim().to_string(),
+    })?;
+    if let Some(u) = keys::find_unknown(doc.get_ref()) {
+        return Err(SceneError::UnknownKey {
+            at: cx.at(u.span),
+            key: u.key,
+            suggestion: u.suggestion,
+            valid: u.valid.iter().map(|s| s.to_string()).collect(),
+        });
+    }
+    let raw: RawScene = toml::from_str(text).map_err(|e| serde_error(&cx, &doc, &e))?;
+    convert(&cx, &doc, raw, default_name)
+}
+
+/// Maps a deserialisation error (a wrong type, a missing key) to the key it is about.
+fn serde_error(cx: &Ctx<'_>, doc: &Spanned<DeTable<'_>>, e: &toml::de::Error) -> SceneError {
+    let message = e.message().trim().to_string();
+    let Some(span) = e.span() else {
+        return SceneError::Syntax {
+            at: Box::new(Location::file_only(cx.file)),
+            message,
+        };
+    };
+    let key = keys::path_at(doc.get_ref(), span.start).unwrap_or_default();
+    if let Some(field) = message
+        .strip_prefix("missing field `")
+        .and_then(|m| m.split('`').next())
+    {
+        let key = if key.is_empty() {
+            field.to_string()
+        } else {
+            format!("{key}.{field}")
+        };
+        return SceneError::Missing {
+            at: cx.at(span),
+            message: missing_help(field).to_string(),
+            key,
+        };
+    }
+    SceneError::WrongType {
+        at: cx.at(span.clone()),
+        key,
+        value: cx.raw(&span),
+        message: friendly_types(&message),
+    }
+}
+
+fn missing_help(field: &str) -> &'static str {
+    match field {
+        "shape" => "every [[collider]] needs shape = \"plane\", \"sphere\" or \"box\"",
+        "particle" => "every [[grab]] needs particle = [column, row] (0-based grid index)",
+        "keys" => "every [[grab]] needs keys = [{ time = ..., offset = [x, y, z] }, ...]",
+        "time" => "every grab key needs time = ... (s)",
+        "offset" => "every grab key needs offset = [x, y, z] (m)",
+        _ => "this key is required here",
+    }
+}
+
+/// Rewrites serde's message in words: `invalid type: string "a", expected f64` becomes
+/// `expected a number, found string "a"`.
+fn friendly_types(message: &str) -> String {
+    let words = |s: &str| {
+        if s.starts_with("struct Raw") {
+            return "a table".to_string();
+        }
+        s.replace("f64", "a number")
+            .replace("usize", "a non-negative integer")
+            .replace("a boolean", "true or false")
+            .replace("a sequence", "an array")
+    };
+    for (prefix, found) in [
+        ("invalid type: ", ""),
+        ("invalid value: ", ""),
+        ("invalid length ", "length "),
+    ] {
+        if let Some((what, expected)) = message
+            .strip_prefix(prefix)
+            .and_then(|m| m.split_once(", expected "))
+        {
+            return format!("expected {}, found {found}{what}", words(expected));
+        }
+    }
+    words(message)
+}
+
+fn vec3(a: Arr<Real, 3>) -> Vec3 {
+    Vec3::from_array(a.0)
+}
+
+fn convert(
+    cx: &Ctx<'_>,
+    doc: &Spanned<DeTable<'_>>,
+    raw: RawScene,
+    default_name: &str,
+) -> Result<(String, SimConfig), SceneError> {
+    let name = match raw.name {
+        Some(n) => {
+            crate::check_name(n.get_ref()).map_err(|message| SceneError::Invalid {
+                at: cx.at(n.span()),
+                key: "name".into(),
+                value: format!("{:?}", n.get_ref()),
+                message,
+            })?;
+            n.into_inner()
+        }
+        None => sanitize_name(default_name),
+    };
+
+    let mut simulation = SimulationParams::default();
+    if let Some(s) = raw.simulation {
+        let d = &mut simulation;
+        set(&mut d.duration, s.duration);
+        set(&mut d.time_step, s.time_step);
+        set(&mut d.frame_rate, s.frame_rate);
+        set(&mut d.gravity, s.gravity.map(vec3));
+        if let Some(i) = s.integrator {
+            d.integrator = Integrator::from_name(i.get_ref()).ok_or_else(|| {
+                let allowed: Vec<String> = Integrator::ALL
+                    .iter()
+                    .map(|i| format!("\"{}\"", i.name()))
+                    .collect();
+                SceneError::Invalid {
+                    at: cx.at(i.span()),
+                    key: "simulation.integrator".into(),
+                    value: format!("{:?}", i.get_ref()),
+                    message: format!(
+                        "unknown integrator{}: allowed {}",
+                        did_you_mean(i.get_ref(), &Integrator::ALL.map(|i| i.name())),
+                        allowed.join(", ")
+                    ),
+                }
+            })?;
+        }
+    }
+
+    let mut cloth = ClothParams::default();
+    if let Some(c) = raw.cloth {
+        let d = &mut cloth;
+        set(&mut d.size, c.size.map(|a| a.0));
+        set(&mut d.resolution, c.resolution.map(|a| a.0));
+        set(&mut d.position, c.position.map(vec3));
+        set(&mut d.mass, c.mass);
+        set(&mut d.structural_stiffness, c.structural_stiffness);
+        set(&mut d.shear_stiffness, c.shear_stiffness);
+        set(&mut d.damping, c.damping);
+        set(&mut d.thickness, c.thickness);
+        set(&mut d.collision_margin, c.collision_margin);
+        set(&mut d.self_collision, c.self_collision);
+        set(&mut d.strain_limit, c.strain_limit);
+        set(&mut d.strain_limit_iterations, c.strain_limit_iterations);
+    }
+
+    let mut air = AirParams::default();
+    if let Some(a) = raw.air {
+        set(&mut air.enabled, a.enabled);
+        set(&mut air.atmospheric_pressure, a.atmospheric_pressure);
+        set(&mut air.trapped_air, a.trapped_air);
+    }
+
+    // No `[[collider]]` at all means the ground (the thesis' table); `collider = []` means none.
+    let colliders = match raw.collider {
+        None => vec![default_ground()],
+        Some(list) => list
+            .into_iter()
+            .enumerate()
+            .map(|(i, c)| collider(cx, doc, i, c))
+            .collect::<Result<Vec<_>, _>>()?,
+    };
+
+    let grabs = raw
+        .grab
+        .into_iter()
+        .map(|g| GrabSpec {
+            particle: g.particle.0,
+            keys: g
+                .keys
+                .into_iter()
+                .map(|k| GrabKey {
+                    time: k.time,
+                    offset: vec3(k.offset),
+                })
+                .collect(),
+        })
+        .collect();
+
+    Ok((
+        name,
+        SimConfig {
+            simulation,
+            cloth,
+            air,
+            colliders,
+            grabs,
+        },
+    ))
+}
+
+/// ` (did you mean "x"?)` for the closest of `names` to `value`, or nothing.
+fn did_you_mean(value: &str, names: &[&str]) -> String {
+    names
+        .iter()
+        .map(|n| (strsim::jaro_winkler(value, n), *n))
+        .filter(|(score, _)| *score >= 0.7)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, n)| format!(" (did you mean \"{n}\"?)"))
+        .unwrap_or_default()
+}
+
+fn set<T>(field: &mut T, value: Option<T>) {
+    if let Some(v) = value {
+        *field = v;
+    }
+}
+
+/// A name usable as a directory from a file stem: characters outside the allowed set become `-`.
+fn sanitize_name(stem: &str) -> String {
+    let s: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    let s = s.trim_start_matches('.');
+    if s.is_empty() {
+        "scene".to_string()
+    } else {
+        s.to_string()
+    }
+}
+
+/// Normalises a plane normal, keeping it bit for bit when it is already of unit length, so a
+/// resolved scene parses back to the same normal.
+fn unit(n: Vec3) -> Vec3 {
+    let len = n.length();
+    if (len - 1.0).abs() <= 1e-12 || len == 0.0 || !len.is_finite() {
+        n
+    } else {
+        n / len
+    }
+}
+
+fn collider(
+    cx: &Ctx<'_>,
+    doc: &Spanned<DeTable<'_>>,
+    index: usize,
+    c: Spanned<RawCollider>,
+) -> Result<Collider, SceneError> {
+    let table_span = c.span();
+    let c = c.into_inner();
+    let shape_name = c.shape.get_ref().as_str();
+    let key = |k: &str| format!("collider[{index}].{k}");
+    // Keys that belong to another shape are a mistake worth naming.
+    let allowed: &[&str] = match shape_name {
+        "plane" => &["point", "normal"],
+        "sphere" => &["center", "radius"],
+        "box" => &["center", "half_extents"],
+        _ => {
+            return Err(SceneError::Invalid {
+                at: cx.at(c.shape.span()),
+                key: key("shape"),
+                value: format!("{shape_name:?}"),
+                message: format!(
+                    "unknown collider shape{}: allowed {}",
+                    did_you_mean(shape_name, &SHAPES),
+                    SHAPES.map(|s| format!("\"{s}\"")).join(", ")
+                ),
+            });
+        }
+    };
+    let given = [
+        ("point", c.point.as_ref().map(|s| s.span())),
+        ("normal", c.normal.as_ref().map(|s| s.span())),
+        ("center", c.center.as_ref().map(|s| s.span())),
+        ("radius", c.radius.as_ref().map(|s| s.span())),
+        ("half_extents", c.half_extents.as_ref().map(|s| s.span())),
+    ];
+    for (name, span) in given {
+        if let Some(span) = span
+            && !allowed.contains(&name)
+        {
+            let key_span = keys::locate(doc, &key(name)).map_or(span.clone(), |(s, _)| s);
+            return Err(SceneError::Invalid {
+                at: cx.at(key_span),
+                key: key(name),
+                value: cx.raw(&span),
+                message: format!(
+                    "a {shape_name} collider has no `{name}`: its keys are {}, friction",
+                    allowed.join(", ")
+                ),
+            });
+        }
+    }
+    let missing = |name: &str, help: &str| SceneError::Missing {
+        at: cx.at(table_span.clone()),
+        key: key(name),
+        message: format!("a {shape_name} collider needs {name} = {help}"),
+    };
+    let friction = c.friction.unwrap_or(DEFAULT_FRICTION);
+    let v = |s: Option<Spanned<Arr<Real, 3>>>| s.map(|s| vec3(s.into_inner()));
+    let shape = match shape_name {
+        "plane" => Shape::Plane {
+            point: v(c.point).unwrap_or(Vec3::ZERO),
+            normal: unit(v(c.normal).unwrap_or(Vec3::Y)),
+        },
+        "sphere" => Shape::Sphere {
+            center: v(c.center).unwrap_or(Vec3::ZERO),
+            radius: c
+                .radius
+                .map(Spanned::into_inner)
+                .ok_or_else(|| missing("radius", "... (m)"))?,
+        },
+        _ => Shape::Box {
+            center: v(c.center).unwrap_or(Vec3::ZERO),
+            half_extents: v(c.half_extents)
+                .ok_or_else(|| missing("half_extents", "[x, y, z] (m)"))?,
+        },
+    };
+    Ok(Collider { shape, friction })
+}
+
+/// A [`ConfigError`] placed at its key in the file (or at the table that lacks the key).
+pub fn config_error(
+    file: &str,
+    text: &str,
+    doc: &Spanned<DeTable<'_>>,
+    err: &ConfigError,
+) -> SceneError {
+    match keys::locate(doc, err.key()) {
+        Some((span, exact)) => {
+            let value = if exact {
+                text.get(span.clone()).unwrap_or("?").trim().to_string()
+            } else {
+                "(default)".to_string()
+            };
+            from_config_error(Location::of_span(file, text, span), value, err)
+        }
+        None => from_config_error(Location::file_only(file), "(default)".into(), err),
+    }
+}
+
+/// A [`ConfigError`] with no place in a file (a scene built in code).
+pub fn config_error_unplaced(label: &str, err: &ConfigError) -> SceneError {
+    from_config_error(Location::file_only(label), "(as configured)".into(), err)
+}
+
+fn from_config_error(at: Location, value: String, err: &ConfigError) -> SceneError {
+    let at = Box::new(at);
+    match err {
+        ConfigError::OutOfRange { key, value, range } => SceneError::OutOfRange {
+            at,
+            key: key.clone(),
+            value: value.clone(),
+            range: range.clone(),
+        },
+        ConfigError::Invalid { key, message } => SceneError::Invalid {
+            at,
+            key: key.clone(),
+            value,
+            message: message.clone(),
+        },
+    }
+}
