@@ -8,6 +8,7 @@
 mod bench;
 mod error;
 mod run;
+mod view;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -32,6 +33,8 @@ enum Command {
     /// Measure simulation speed on the thesis workload (table 4.2): steps/s, particle-steps/s
     /// and real-time factor per cloth size and thread count.
     Bench(bench::BenchArgs),
+    /// Open the interactive demo window: pull the wet cloth off the table with the mouse.
+    View(view::ViewArgs),
 }
 
 fn main() -> ExitCode {
@@ -48,6 +51,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Run(args) => run::run(args, cli.quiet),
         Command::Bench(args) => bench::bench(args, cli.quiet),
+        Command::View(args) => view::view(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,13 +15,13 @@ use glam::{Mat4, Vec2, Vec3};
 use wetcloth::{Grid, Shape, SimConfig};
 use wetcloth_render::Solid;
 
+use crate::ViewerOptions;
 use crate::camera::OrbitCamera;
 use crate::pick::{self, Drag, PICK_RADIUS_PX, Pins, Viewport};
 use crate::record::Recorder;
 use crate::runner::{Command, Runner, Snapshot};
 use crate::script::{self, Command as ScriptCmd};
 use crate::view3d;
-use crate::{SceneLoader, ViewerOptions};
 
 /// Seconds of history in the live plot.
 const PLOT_SECONDS: f64 = 10.0;
@@ -117,7 +117,6 @@ pub(crate) struct Outcome {
 pub(crate) struct ViewerApp {
     runner: Runner,
     scene_name: String,
-    scene_loader: Option<SceneLoader>,
     scene_path: String,
     snap: Arc<Snapshot>,
     mesh: MeshCache,
@@ -147,29 +146,20 @@ pub(crate) struct ViewerApp {
     closing: bool,
 }
 
-/// Triangles and texture coordinates of the current grid (they change only on a restart).
+/// Triangle indices of the current grid (they change only on a restart).
 struct MeshCache {
     generation: u64,
     resolution: [usize; 2],
     indices: Arc<Vec<u32>>,
-    triangles: Vec<[u32; 3]>,
-    uvs: Vec<[f32; 2]>,
 }
 
 impl MeshCache {
     fn new(snap: &Snapshot) -> Self {
         let grid = Grid::new(&snap.config.cloth);
-        let triangles = grid.triangles();
         Self {
             generation: snap.generation,
             resolution: snap.resolution,
-            indices: Arc::new(triangles.iter().flatten().copied().collect()),
-            triangles,
-            uvs: grid
-                .uvs()
-                .into_iter()
-                .map(|[u, v]| [u as f32, v as f32])
-                .collect(),
+            indices: Arc::new(grid.triangles().into_iter().flatten().collect()),
         }
     }
 }
@@ -203,7 +193,6 @@ impl ViewerApp {
             base_config,
             runner,
             scene_name: opts.scene_name,
-            scene_loader: opts.scene_loader,
             scene_path: opts
                 .scene_path
                 .map(|p| p.display().to_string())
@@ -328,7 +317,7 @@ impl ViewerApp {
             return;
         }
         let dir = PathBuf::from(self.record_dir.trim());
-        match Recorder::start(&dir, self.mesh.triangles.clone(), self.mesh.uvs.clone()) {
+        match Recorder::start(&dir, &self.scene_name, &self.snap.config) {
             Ok(r) => {
                 self.recorder = Some(r);
                 self.last_recorded = 0;
@@ -350,12 +339,9 @@ impl ViewerApp {
 
     fn open_scene(&mut self) {
         let path = PathBuf::from(self.scene_path.trim());
-        let Some(loader) = &self.scene_loader else {
-            self.warn("Opening scene files needs the `wetcloth view` command");
-            return;
-        };
-        match loader(&path) {
-            Ok(mut cfg) => {
+        match wetcloth_scene::load(&path) {
+            Ok(scene) => {
+                let mut cfg = scene.config;
                 cfg.air.enabled = cfg.air.enabled && cfg.sticking_plane().is_some();
                 self.base_config = cfg.clone();
                 self.edit = Edit::from_config(&cfg);
@@ -364,10 +350,7 @@ impl ViewerApp {
                 self.runner.send(Command::Configure(Box::new(cfg)));
                 self.history.clear();
                 self.last_plot_time = -1.0;
-                self.scene_name = path
-                    .file_stem()
-                    .map(|s| s.to_string_lossy().into_owned())
-                    .unwrap_or_default();
+                self.scene_name = scene.name;
                 self.say(format!("Opened {}", path.display()));
             }
             Err(e) => self.warn(format!("Cannot open {}: {e}", path.display())),
@@ -836,7 +819,7 @@ impl ViewerApp {
         if let Some(rec) = &mut self.recorder
             && snap.serial != self.last_recorded
         {
-            rec.record(&snap.positions, &snap.normals, snap.metrics);
+            rec.record(Arc::clone(&snap.exact), snap.metrics);
             self.last_recorded = snap.serial;
         }
         let now = Instant::now();

@@ -51,21 +51,10 @@ pub mod script;
 mod app;
 mod view3d;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use wetcloth::SimConfig;
-
-/// Time step of the default scene, s (1/16000).
-///
-/// The thesis' 1/12000 s is at the edge of position Verlet's stability for its cloth (8 mg
-/// particles on 1000 N/m springs: the highest grid mode has omega dt close to 2): the cloth
-/// rests, but a particle pulled by the mouse sets off an oscillation that tears it within a few
-/// dozen steps. At 1/16000 s the same pull is stable.
-pub const INTERACTIVE_TIME_STEP: f64 = 1.0 / 16000.0;
-
-/// Loads a scene file into a configuration (the error is shown to the user as is).
-pub type SceneLoader = Box<dyn Fn(&Path) -> Result<SimConfig, String>>;
 
 /// What to show and how.
 pub struct ViewerOptions {
@@ -75,8 +64,6 @@ pub struct ViewerOptions {
     pub scene_name: String,
     /// The scene's file, if it came from one (prefills the "Scene file" field).
     pub scene_path: Option<PathBuf>,
-    /// How to open other scene files from the window; `None` disables the "Open" button.
-    pub scene_loader: Option<SceneLoader>,
     /// A script of input events to replay (see [`script`]).
     pub script: Option<PathBuf>,
     /// A PNG to save once the script has run (or after start-up without a script).
@@ -99,7 +86,6 @@ impl ViewerOptions {
             scene,
             scene_name: name.into(),
             scene_path: None,
-            scene_loader: None,
             script: None,
             screenshot: None,
             exit_after_script: false,
@@ -109,13 +95,11 @@ impl ViewerOptions {
         }
     }
 
-    /// The thesis' demo (ch. 4) with its keyframed lift removed (the hand is yours), stepped at
-    /// [`INTERACTIVE_TIME_STEP`].
+    /// The thesis' demo (ch. 4) with its keyframed lift removed: the hand is yours.
     pub fn thesis_demo() -> Self {
         let mut scene = SimConfig::thesis_demo();
         scene.grabs.clear();
-        scene.simulation.time_step = INTERACTIVE_TIME_STEP;
-        Self::new(scene, "thesis demo")
+        Self::new(scene, wetcloth_scene::THESIS_DEMO_NAME)
     }
 }
 
@@ -225,7 +209,6 @@ mod tests {
     fn the_default_scene_leaves_the_hand_to_the_user() {
         let o = ViewerOptions::thesis_demo();
         assert!(o.scene.grabs.is_empty());
-        assert_eq!(o.scene.simulation.time_step, INTERACTIVE_TIME_STEP);
         assert!(o.scene.validate().is_ok());
     }
 }

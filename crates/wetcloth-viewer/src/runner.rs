@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use wetcloth::{FrameMetrics, Grab, GrabMotion, SimConfig, Simulation, Vec3};
+use wetcloth::{FrameMetrics, Grab, GrabMotion, SimConfig, Simulation, Soa, Vec3};
 
 /// Longest run of steps between two looks at the commands, wall time.
 pub const SLICE: Duration = Duration::from_millis(12);
@@ -64,8 +64,10 @@ pub struct Snapshot {
     pub serial: u64,
     /// Counts restarts (reset, new scene, new resolution).
     pub generation: u64,
-    /// Particle positions, m.
+    /// Particle positions, m, in single precision for drawing and picking.
     pub positions: Vec<[f32; 3]>,
+    /// The exact particle positions, m (for recording).
+    pub exact: Arc<Soa>,
     /// Smooth vertex normals.
     pub normals: Vec<[f32; 3]>,
     /// Grid size (columns, rows).
@@ -206,6 +208,7 @@ impl State {
             serial,
             generation: self.generation,
             positions,
+            exact: Arc::new(x.clone()),
             normals,
             resolution: [sim.grid().nx, sim.grid().nz],
             config: sim.config().clone(),

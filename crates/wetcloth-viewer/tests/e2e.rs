@@ -284,8 +284,10 @@ fn viewer_lifts_the_cloth() {
         }
     }
     let lifted = changed as f64 / total as f64;
-    // A region of the view far from the drag (a top corner of the table or sky) is unchanged.
-    let (cx, cy) = view.at(0.06, 0.06);
+    // A patch of table far from the drag (the bottom-left corner of the view, nearest the
+    // camera) is unchanged. (Not the far end of the table: it fades into the background at a
+    // distance that follows the scene's extent, which the lifted cloth changes.)
+    let (cx, cy) = view.at(0.03, 0.92);
     let mut same = 0;
     let mut corner = 0;
     for y in cy..cy + 20 {
