@@ -351,6 +351,9 @@ impl ViewerApp {
                 self.history.clear();
                 self.last_plot_time = -1.0;
                 self.scene_name = scene.name;
+                let c = &self.base_config.cloth;
+                self.camera =
+                    OrbitCamera::framing(c.position.as_vec3(), c.size[0].max(c.size[1]) as f32);
                 self.say(format!("Opened {}", path.display()));
             }
             Err(e) => self.warn(format!("Cannot open {}: {e}", path.display())),

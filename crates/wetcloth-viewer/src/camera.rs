@@ -41,14 +41,44 @@ impl Default for OrbitCamera {
 const MAX_PITCH: f32 = 1.55;
 
 impl OrbitCamera {
-    /// A camera framing a cloth of the given size lying around `centre`.
+    /// The renderer's framing of a cloth `size` wide lying around `centre`, with room above it
+    /// for lifting (the same view `wetcloth render` chooses for a flat cloth).
     pub fn framing(centre: Vec3, size: f32) -> Self {
+        let half = Vec3::new(0.5 * size, 0.0, 0.5 * size);
+        let lo = centre - half;
+        let hi = centre + half + Vec3::Y * (0.3 * size);
+        Self::from_camera(&wetcloth_render::Camera::framing(
+            lo.to_array(),
+            hi.to_array(),
+        ))
+    }
+
+    /// The orbit camera with the same eye, target and projection as a renderer camera (its up
+    /// vector is taken to be +Y).
+    pub fn from_camera(c: &wetcloth_render::Camera) -> Self {
+        let target = Vec3::from_array(c.target);
+        let d = Vec3::from_array(c.eye) - target;
+        let distance = d.length().max(1e-6);
         Self {
-            target: centre + Vec3::Y * (0.07 * size),
-            distance: 2.05 * size.max(1e-3),
-            near: 0.01 * size.max(1e-3),
-            far: 200.0 * size.max(1e-3),
-            ..Self::default()
+            target,
+            yaw: d.x.atan2(d.z),
+            pitch: (d.y / distance).clamp(-1.0, 1.0).asin(),
+            distance,
+            fov_y: c.fov_y,
+            near: c.near,
+            far: c.far,
+        }
+    }
+
+    /// The renderer's camera for this view.
+    pub fn to_camera(&self) -> wetcloth_render::Camera {
+        wetcloth_render::Camera {
+            eye: self.eye().to_array(),
+            target: self.target.to_array(),
+            up: [0.0, 1.0, 0.0],
+            fov_y: self.fov_y,
+            near: self.near,
+            far: self.far,
         }
     }
 
@@ -113,6 +143,22 @@ mod tests {
         assert!((c.eye().distance(c.target) - c.distance).abs() < 1e-5);
         assert!(c.eye().y > c.target.y, "looks down at the table");
         assert!(c.forward().dot(c.target - c.eye()) > 0.0);
+    }
+
+    #[test]
+    fn matches_the_renderer_camera() {
+        let c = OrbitCamera::framing(Vec3::ZERO, 0.3);
+        let r = c.to_camera();
+        let back = OrbitCamera::from_camera(&r);
+        assert!((back.yaw - c.yaw).abs() < 1e-5 && (back.pitch - c.pitch).abs() < 1e-5);
+        // Same matrix as the renderer draws with, so picks land where the cloth is drawn.
+        let (a, b) = (c.view_proj(1.5), r.view_proj(1.5));
+        assert!(a.abs_diff_eq(b, 1e-4), "{a:?} vs {b:?}");
+        // The whole cloth is in view.
+        for corner in [[-0.15, 0.0, -0.15], [0.15, 0.0, 0.15], [0.15, 0.0, -0.15]] {
+            let p = c.view_proj(1.5) * Vec3::from_array(corner).extend(1.0);
+            assert!((p.x / p.w).abs() < 1.0 && (p.y / p.w).abs() < 1.0);
+        }
     }
 
     #[test]

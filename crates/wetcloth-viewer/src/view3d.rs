@@ -6,7 +6,7 @@ use std::sync::Arc;
 use eframe::egui;
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, RenderState, ScreenDescriptor};
 use glam::Vec3;
-use wetcloth_render::{Camera, ClothRenderer, GroundPlane, MeshView, SceneView, Solid};
+use wetcloth_render::{ClothRenderer, GroundPlane, MeshView, SceneView, Solid};
 
 use crate::camera::OrbitCamera;
 
@@ -30,18 +30,6 @@ pub(crate) struct Frame {
     pub pinned: Vec<usize>,
     pub camera: OrbitCamera,
     pub wetness: f32,
-}
-
-/// The renderer's camera for an orbit camera (same eye, target and projection).
-pub(crate) fn render_camera(c: &OrbitCamera) -> Camera {
-    Camera {
-        eye: c.eye().to_array(),
-        target: c.target.to_array(),
-        up: [0.0, 1.0, 0.0],
-        fov_y: c.fov_y,
-        near: c.near,
-        far: c.far,
-    }
 }
 
 /// Creates the renderer for the window's surface and keeps it in egui's callback resources.
@@ -94,7 +82,7 @@ impl CallbackTrait for SceneCallback {
             highlight: f.highlight,
             pinned: &f.pinned,
             solids: &f.solids,
-            camera: render_camera(&f.camera),
+            camera: f.camera.to_camera(),
             wetness: f.wetness,
         };
         renderer.prepare(device, queue, &scene, viewport);
