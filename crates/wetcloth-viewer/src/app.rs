@@ -329,12 +329,17 @@ impl ViewerApp {
 
     fn apply_params(&mut self) {
         let cfg = self.edit.apply(&self.snap.config);
-        self.end_drag();
-        self.pins.clear();
+        let restarts = cfg.cloth.resolution != self.snap.config.cloth.resolution
+            || !cfg.grabs.is_empty()
+            || self.snap.error.is_some();
         self.runner.send(Command::Configure(Box::new(cfg)));
-        self.history.clear();
-        self.last_plot_time = -1.0;
-        self.say("Parameters applied; the run restarted");
+        if restarts {
+            self.end_drag();
+            self.pins.clear();
+            self.say("New resolution: the run restarted");
+        } else {
+            self.say("Parameters applied");
+        }
     }
 
     fn open_scene(&mut self) {
@@ -1005,66 +1010,85 @@ impl ViewerApp {
 
     fn parameters(&mut self, ui: &mut egui::Ui) {
         let e = &mut self.edit;
+        // A change applies when the slider is let go (or a typed value is entered), so a drag
+        // across the range does not restart anything on the way.
+        let mut commit = false;
+        let mut done = |r: egui::Response| {
+            commit |= r.drag_stopped() || (r.changed() && !r.dragged());
+        };
         egui::Grid::new("params")
             .num_columns(2)
             .spacing([8.0, 4.0])
             .show(ui, |ui| {
-                ui.label("Air amount");
-                ui.add(egui::Slider::new(&mut e.air_cm3, 0.0..=1000.0).suffix(" cm³"));
+                ui.label("Air amount").on_hover_text(
+                    "Trapped air v0 at atmospheric pressure (thesis: 0 and 400 cm³)",
+                );
+                done(ui.add(egui::Slider::new(&mut e.air_cm3, 0.0..=1000.0).suffix(" cm³")));
                 ui.end_row();
                 ui.label("Structural k");
-                ui.add(
-                    egui::Slider::new(&mut e.structural, 10.0..=20000.0)
-                        .logarithmic(true)
-                        .suffix(" N/m"),
+                done(
+                    ui.add(
+                        egui::Slider::new(&mut e.structural, 10.0..=20000.0)
+                            .logarithmic(true)
+                            .suffix(" N/m"),
+                    ),
                 );
                 ui.end_row();
                 ui.label("Shear k");
-                ui.add(
-                    egui::Slider::new(&mut e.shear, 1.0..=20000.0)
-                        .logarithmic(true)
-                        .suffix(" N/m"),
+                done(
+                    ui.add(
+                        egui::Slider::new(&mut e.shear, 1.0..=20000.0)
+                            .logarithmic(true)
+                            .suffix(" N/m"),
+                    ),
                 );
                 ui.end_row();
                 ui.label("Friction μ");
-                ui.add(egui::Slider::new(&mut e.friction, 0.0..=2.0));
+                done(ui.add(egui::Slider::new(&mut e.friction, 0.0..=2.0)));
                 ui.end_row();
                 ui.label("Damping");
-                ui.add(egui::Slider::new(&mut e.damping, 0.0..=20.0).suffix(" 1/s"));
+                done(ui.add(egui::Slider::new(&mut e.damping, 0.0..=20.0).suffix(" 1/s")));
                 ui.end_row();
                 ui.label("Time step");
-                ui.add(
-                    egui::Slider::new(&mut e.rate, 1000.0..=40000.0)
-                        .logarithmic(true)
-                        .prefix("1/")
-                        .suffix(" s")
-                        .integer(),
+                done(
+                    ui.add(
+                        egui::Slider::new(&mut e.rate, 1000.0..=40000.0)
+                            .logarithmic(true)
+                            .prefix("1/")
+                            .suffix(" s")
+                            .integer(),
+                    ),
                 );
                 ui.end_row();
-                ui.label("Resolution");
-                ui.add(egui::Slider::new(&mut e.resolution, 4..=100).suffix(" per side"));
+                ui.label("Resolution")
+                    .on_hover_text("Particles per side; a new resolution restarts the run");
+                done(ui.add(egui::Slider::new(&mut e.resolution, 4..=100).suffix(" per side")));
                 ui.end_row();
             });
+        let stable = self.edit.apply(&self.snap.config).stable_time_step();
+        if 1.0 / self.edit.rate > stable {
+            ui.label(
+                RichText::new(format!(
+                    "⚠ above this cloth's stable time step 1/{:.0} s",
+                    (1.0 / stable).ceil()
+                ))
+                .color(Color32::from_rgb(200, 120, 20)),
+            );
+        }
         let changed = Edit::from_config(&self.snap.config) != self.edit;
+        if commit && changed {
+            self.apply_params();
+        }
         ui.horizontal(|ui| {
             if ui
-                .add_enabled(changed, egui::Button::new("Apply (restarts)"))
-                .clicked()
-            {
-                self.apply_params();
-            }
-            if ui
-                .add_enabled(changed, egui::Button::new("Revert"))
-                .clicked()
-            {
-                self.edit = Edit::from_config(&self.snap.config);
-            }
-            if ui
                 .button("Scene defaults")
-                .on_hover_text("The parameters of the scene as loaded")
+                .on_hover_text("Back to the parameters of the scene as loaded")
                 .clicked()
             {
                 self.edit = Edit::from_config(&self.base_config);
+                if Edit::from_config(&self.snap.config) != self.edit {
+                    self.apply_params();
+                }
             }
         });
     }

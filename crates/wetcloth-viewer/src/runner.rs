@@ -46,8 +46,9 @@ pub enum Command {
     SetAir(bool),
     /// Back to the scene's state at t = 0 (interactive grabs are dropped).
     Reset,
-    /// Replace the parameters. A different resolution or cloth size restarts from t = 0; other
-    /// changes also restart, keeping the run going with the new values.
+    /// Replace the parameters. The cloth keeps its shape, motion and grabs, and time goes on;
+    /// a different resolution or cloth size (or a scene with keyframed grabs, whose paths are
+    /// timed from t = 0) restarts from the new scene's initial state instead.
     Configure(Box<SimConfig>),
     /// Pause or resume.
     Pause(bool),
@@ -164,6 +165,8 @@ struct State {
     paused: bool,
     error: Option<String>,
     notice: Option<(u64, String)>,
+    /// Simulated time before the current `Simulation` began (parameters changed mid-run), s.
+    time_offset: f64,
     generation: u64,
     serial: u64,
     /// Wall instant and simulated time of the last pacing anchor.
@@ -183,6 +186,7 @@ impl State {
             paused: false,
             error: None,
             notice: None,
+            time_offset: 0.0,
             generation: 0,
             serial: 0,
             anchor: (now, 0.0),
@@ -212,7 +216,10 @@ impl State {
             normals,
             resolution: [sim.grid().nx, sim.grid().nz],
             config: sim.config().clone(),
-            metrics: sim.metrics(),
+            metrics: FrameMetrics {
+                time: sim.time() + self.time_offset,
+                ..sim.metrics()
+            },
             air_enabled: sim.air_enabled(),
             paused: self.paused || self.error.is_some(),
             realtime_factor: self.rates.0,
@@ -228,6 +235,7 @@ impl State {
     }
 
     fn restart(&mut self, sim: Simulation) {
+        self.time_offset = 0.0;
         let air = self.sim.air_enabled();
         self.initial = sim.clone();
         self.sim = sim;
@@ -278,10 +286,7 @@ impl State {
                 let sim = self.initial.clone();
                 self.restart(sim);
             }
-            Command::Configure(cfg) => match Simulation::new(*cfg) {
-                Ok(sim) => self.restart(sim),
-                Err(e) => self.notify(format!("parameters refused: {e}")),
-            },
+            Command::Configure(cfg) => self.configure(*cfg),
             Command::Pause(p) => {
                 self.paused = p;
                 self.reanchor();
@@ -293,6 +298,45 @@ impl State {
             Command::Quit => return false,
         }
         true
+    }
+
+    /// Carries the cloth's state over to a simulation with new parameters, or restarts when
+    /// the state cannot carry over.
+    fn configure(&mut self, cfg: SimConfig) {
+        let old = self.sim.config();
+        let same_cloth = cfg.cloth.resolution == old.cloth.resolution
+            && cfg.cloth.size == old.cloth.size
+            && cfg.grabs.is_empty()
+            && old.grabs.is_empty();
+        let mut sim = match Simulation::new(cfg) {
+            Ok(sim) => sim,
+            Err(e) => return self.notify(format!("parameters refused: {e}")),
+        };
+        if !same_cloth || self.error.is_some() {
+            return self.restart(sim);
+        }
+        // Verlet's velocity is (x - x_prev) / dt: keep it across a new time step.
+        let scale = sim.time_step() / self.sim.time_step();
+        let (x, prev) = (self.sim.positions(), self.sim.previous_positions());
+        let mut before = prev.clone();
+        for k in 0..x.len() {
+            before.set(k, x.get(k) - (x.get(k) - prev.get(k)) * scale);
+        }
+        if let Err(e) = sim.set_state(x.clone(), before) {
+            return self.notify(format!("parameters refused: {e}"));
+        }
+        sim.set_air_enabled(self.sim.air_enabled());
+        for g in self.sim.grabs() {
+            sim.add_grab(Grab::new(g.particle, g.motion.clone()));
+        }
+        // Reset now starts the scene over with the new parameters.
+        if let Ok(fresh) = Simulation::new(sim.config().clone()) {
+            self.initial = fresh;
+        }
+        self.time_offset += self.sim.time();
+        self.sim = sim;
+        self.reanchor();
+        self.window = (Instant::now(), self.sim.time(), self.sim.step_count());
     }
 
     fn notify(&mut self, text: impl Into<String>) {
@@ -504,6 +548,30 @@ mod tests {
         let s = wait_for(&r, |s| s.generation == 2);
         assert_eq!(s.resolution, [12, 8]);
         assert_eq!(s.positions.len(), 96);
+    }
+
+    #[test]
+    fn new_parameters_keep_the_cloth_its_grabs_and_the_clock() {
+        let r = Runner::start(small(), || {}).unwrap();
+        wait_for(&r, |s| s.metrics.time > 0.1);
+        let target = Vec3::new(0.0, 0.03, 0.0);
+        r.send(Command::Hold {
+            particle: 55,
+            target,
+        });
+        let before = wait_for(&r, |s| {
+            (Vec3::from(s.positions[55].map(f64::from)) - target).length() < 1e-4
+        });
+        let mut cfg = small();
+        cfg.cloth.structural_stiffness *= 2.0;
+        cfg.simulation.time_step *= 0.5;
+        r.send(Command::Configure(Box::new(cfg)));
+        let s = wait_for(&r, |s| s.config.simulation.time_step < 1.0 / 3000.0);
+        assert_eq!(s.generation, before.generation, "no restart");
+        assert_eq!(s.held, vec![55]);
+        assert!(s.metrics.time >= before.metrics.time, "time goes on");
+        assert!((Vec3::from(s.positions[55].map(f64::from)) - target).length() < 1e-3);
+        assert!(s.error.is_none());
     }
 
     #[test]
