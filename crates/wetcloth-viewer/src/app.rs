@@ -1069,7 +1069,7 @@ impl ViewerApp {
         if 1.0 / self.edit.rate > stable {
             ui.label(
                 RichText::new(format!(
-                    "⚠ above this cloth's stable time step 1/{:.0} s",
+                    "Above this cloth's stable time step, 1/{:.0} s",
                     (1.0 / stable).ceil()
                 ))
                 .color(Color32::from_rgb(200, 120, 20)),
@@ -1133,7 +1133,9 @@ impl ViewerApp {
     fn status_bar(&mut self, ui: &mut egui::Ui) {
         ui.horizontal(|ui| {
             if let Some(err) = self.snap.error.clone() {
-                ui.label(RichText::new(format!("⚠ {err}")).color(Color32::from_rgb(240, 90, 80)));
+                ui.label(
+                    RichText::new(format!("Stopped: {err}")).color(Color32::from_rgb(220, 60, 50)),
+                );
                 if ui.button("Reset").clicked() {
                     self.reset();
                 }
@@ -1161,19 +1163,21 @@ impl ViewerApp {
 
     fn help(&mut self, ctx: &egui::Context) {
         let mut open = self.show_help;
+        let pos = self.view_rect.left_top() + EVec2::new(10.0, 10.0);
         egui::Window::new("Controls")
             .open(&mut open)
             .resizable(false)
             .collapsible(false)
-            .anchor(egui::Align2::LEFT_BOTTOM, [12.0, -40.0])
+            .default_pos(pos)
             .show(ctx, |ui| {
                 egui::Grid::new("help")
                     .num_columns(2)
+                    .spacing([12.0, 1.0])
                     .striped(true)
                     .show(ui, |ui| {
                         for (k, what) in HELP {
-                            ui.label(RichText::new(*k).monospace().strong());
-                            ui.label(*what);
+                            ui.label(RichText::new(*k).small().strong());
+                            ui.label(RichText::new(*what).small());
                             ui.end_row();
                         }
                     });
@@ -1428,7 +1432,13 @@ impl eframe::App for ViewerApp {
         egui::CentralPanel::no_frame().show(ui, |ui| self.view(ui));
         self.help(&ctx);
 
-        if !self.closing {
+        // New snapshots ask for a repaint themselves (see `Runner::start`), and so does input;
+        // a script needs frames to count and to move the mouse in.
+        let scripted = self
+            .player
+            .as_ref()
+            .is_some_and(|p| !p.finished || p.shot.is_some());
+        if scripted && !self.closing {
             ctx.request_repaint();
         }
     }

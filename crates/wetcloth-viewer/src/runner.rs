@@ -25,6 +25,17 @@ pub const MAX_LAG: f64 = 0.1;
 /// instead of tearing the cloth in one.
 pub const DRAG_SPEED: f64 = 2.0;
 
+/// Largest relative elongation of a structural spring (1.2: 2.2 times its rest length) that
+/// interactive pulling may cause. Past it the simulation holds the pull where it is: the
+/// mass-spring cloth is far outside anything cloth does, and a little further it tears
+/// numerically (the core stops at ten times the rest length). With the air force on and no
+/// trapped air, the atmosphere holds the cloth down, and a pinch lifted a few centimetres gets
+/// there.
+pub const TEAR_GUARD: f64 = 1.2;
+
+/// Steps between two checks of the tear guard.
+const GUARD_EVERY: u64 = 16;
+
 /// What the window asks of the simulation.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Command {
@@ -167,6 +178,8 @@ struct State {
     notice: Option<(u64, String)>,
     /// Simulated time before the current `Simulation` began (parameters changed mid-run), s.
     time_offset: f64,
+    /// Whether the tear guard holds the interactive grabs (see [`TEAR_GUARD`]).
+    guarded: bool,
     generation: u64,
     serial: u64,
     /// Wall instant and simulated time of the last pacing anchor.
@@ -187,6 +200,7 @@ impl State {
             error: None,
             notice: None,
             time_offset: 0.0,
+            guarded: false,
             generation: 0,
             serial: 0,
             anchor: (now, 0.0),
@@ -236,6 +250,7 @@ impl State {
 
     fn restart(&mut self, sim: Simulation) {
         self.time_offset = 0.0;
+        self.guarded = false;
         let air = self.sim.air_enabled();
         self.initial = sim.clone();
         self.sim = sim;
@@ -258,6 +273,10 @@ impl State {
                     max_speed: DRAG_SPEED,
                 };
                 match find_grab(&self.sim, particle) {
+                    // While the guard holds, only pulls back down are taken.
+                    Some(i)
+                        if self.guarded
+                            && grab_target(&self.sim, i).is_some_and(|t| target.y > t.y) => {}
                     Some(i) => self.sim.grab_mut(i).motion = motion,
                     None => {
                         self.sim.add_grab(Grab::new(particle, motion));
@@ -339,6 +358,42 @@ impl State {
         self.window = (Instant::now(), self.sim.time(), self.sim.step_count());
     }
 
+    /// Holds every interactive grab where its particle is once the cloth is stretched past
+    /// [`TEAR_GUARD`], and lets go of the hold when it has relaxed.
+    fn guard(&mut self) {
+        let held = interactive_grabs(&self.sim);
+        if held.is_empty() {
+            self.guarded = false;
+            return;
+        }
+        let stretch = self.sim.metrics().max_stretch;
+        if self.guarded {
+            self.guarded = stretch > 0.75 * TEAR_GUARD;
+        } else if stretch > TEAR_GUARD {
+            self.guarded = true;
+            for p in held {
+                let here = self.sim.positions().get(p);
+                if let Some(i) = find_grab(&self.sim, p) {
+                    self.sim.grab_mut(i).motion = GrabMotion::Target {
+                        target: here,
+                        max_speed: DRAG_SPEED,
+                    };
+                }
+            }
+            let air = if self.sim.air_enabled() && self.sim.config().air.trapped_air == 0.0 {
+                " With no air under it the atmosphere holds the cloth down: turn the air force \
+                 off (A) to lift it further."
+            } else {
+                ""
+            };
+            self.notify(format!(
+                "Pull held: the cloth is stretched to {:.1} times its rest length and would \
+                 tear.{air}",
+                1.0 + stretch
+            ));
+        }
+    }
+
     fn notify(&mut self, text: impl Into<String>) {
         let serial = self.notice.as_ref().map_or(1, |(n, _)| n + 1);
         self.notice = Some((serial, text.into()));
@@ -346,7 +401,12 @@ impl State {
 
     fn step(&mut self) -> bool {
         match self.sim.step() {
-            Ok(()) => true,
+            Ok(()) => {
+                if self.sim.step_count().is_multiple_of(GUARD_EVERY) {
+                    self.guard();
+                }
+                true
+            }
             Err(e) => {
                 self.error = Some(format!("{e}. Press Reset (R) to start again."));
                 false
@@ -468,6 +528,14 @@ fn find_grab(sim: &Simulation, particle: usize) -> Option<usize> {
         .position(|g| g.particle == particle && matches!(g.motion, GrabMotion::Target { .. }))
 }
 
+/// Target of grab `i`, if it is an interactive one.
+fn grab_target(sim: &Simulation, i: usize) -> Option<Vec3> {
+    match sim.grabs()[i].motion {
+        GrabMotion::Target { target, .. } => Some(target),
+        GrabMotion::Path(_) => None,
+    }
+}
+
 /// Particles held by interactive grabs.
 fn interactive_grabs(sim: &Simulation) -> Vec<usize> {
     sim.grabs()
@@ -496,7 +564,13 @@ mod tests {
             if what(&s) {
                 return s;
             }
-            assert!(t.elapsed() < Duration::from_secs(20), "timed out: {s:?}");
+            assert!(
+                t.elapsed() < Duration::from_secs(20),
+                "timed out: {:?}, error {:?}, notice {:?}",
+                s.metrics,
+                s.error,
+                s.notice
+            );
             std::thread::sleep(Duration::from_millis(5));
         }
     }
@@ -519,6 +593,41 @@ mod tests {
         assert!(s.metrics.grab_force > 0.0);
         r.send(Command::Release { particle: k });
         wait_for(&r, |s| s.held.is_empty());
+    }
+
+    #[test]
+    fn a_pull_that_would_tear_the_cloth_is_held() {
+        // Air on and no trapped air: the atmosphere holds the cloth down, and pulling one
+        // particle 10 cm up would stretch its springs far past TEAR_GUARD.
+        let mut cfg = SimConfig::thesis_demo();
+        cfg.grabs.clear();
+        cfg.cloth.resolution = [20, 20];
+        let k = 10 * 20 + 10;
+        let r = Runner::start(cfg, || {}).unwrap();
+        wait_for(&r, |s| s.metrics.time > 0.05);
+        let high = Vec3::new(0.0, 0.1, 0.0);
+        r.send(Command::Hold {
+            particle: k,
+            target: high,
+        });
+        let s = wait_for(&r, |s| s.notice.is_some() || s.error.is_some());
+        assert!(s.error.is_none(), "{:?}", s.error);
+        assert!(s.notice.as_ref().unwrap().1.contains("Pull held"), "{s:?}");
+        let (t, y) = (s.metrics.time, s.positions[k][1]);
+        let s = wait_for(&r, |s| s.metrics.time > t + 0.2);
+        assert!(s.error.is_none(), "{:?}", s.error);
+        assert!(s.metrics.max_stretch < 5.0, "{:?}", s.metrics);
+        let y_now = s.positions[k][1];
+        assert!(
+            y_now < y + 0.005 && y_now < 0.099,
+            "the pull stopped: {y} then {y_now}"
+        );
+        // Pulling higher is ignored; pulling back down is taken.
+        r.send(Command::Hold {
+            particle: k,
+            target: Vec3::new(0.0, 0.005, 0.0),
+        });
+        wait_for(&r, |s| s.positions[k][1] < 0.006);
     }
 
     #[test]
