@@ -18,6 +18,10 @@ pub enum CliError {
         /// The output directory.
         dir: PathBuf,
     },
+    /// Rendering or plotting failed (a missing or malformed run directory, no graphics
+    /// adapter). Exit code 1.
+    #[error("{0}")]
+    Render(String),
     /// The run could not be set up (threads, an invalid built-in configuration). Exit code 1.
     #[error("{0}")]
     Setup(String),
@@ -37,7 +41,10 @@ impl CliError {
     pub fn exit_code(&self) -> u8 {
         match self {
             CliError::Scene(_) => 2,
-            CliError::BlowUp { .. } | CliError::Output { .. } | CliError::Setup(_) => 1,
+            CliError::BlowUp { .. }
+            | CliError::Output { .. }
+            | CliError::Setup(_)
+            | CliError::Render(_) => 1,
         }
     }
 

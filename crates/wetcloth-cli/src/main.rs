@@ -7,6 +7,7 @@
 
 mod bench;
 mod error;
+mod render;
 mod run;
 mod view;
 
@@ -33,6 +34,11 @@ enum Command {
     /// Measure simulation speed on the thesis workload (table 4.2): steps/s, particle-steps/s
     /// and real-time factor per cloth size and thread count.
     Bench(bench::BenchArgs),
+    /// Render a run's frames to PNG images (and an MP4 when ffmpeg is installed), with the
+    /// viewer's renderer; needs a GPU or Mesa's software Vulkan (lavapipe).
+    Render(wetcloth_render::RenderOptions),
+    /// Plot a run's metrics.csv over time into RUN_DIR/metrics.png.
+    Plot(render::PlotArgs),
     /// Open the interactive demo window: pull the wet cloth off the table with the mouse.
     View(view::ViewArgs),
 }
@@ -51,6 +57,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Run(args) => run::run(args, cli.quiet),
         Command::Bench(args) => bench::bench(args, cli.quiet),
+        Command::Render(opts) => render::render(opts, cli.quiet),
+        Command::Plot(args) => render::plot(args, cli.quiet),
         Command::View(args) => view::view(args),
     };
     match result {

@@ -39,7 +39,7 @@ pub struct RunArgs {
 }
 
 /// Units of the metrics columns, for the summary.
-const UNITS: [&str; 8] = ["s", "m^3", "Pa", "J", "", "", "m", "N"];
+const UNITS: [&str; 9] = ["s", "m^3", "Pa", "J", "", "", "m", "N", "m^3"];
 
 /// Relative tolerance when counting frames, so that `duration * frame_rate` a hair below an
 /// integer by round-off (0.29 * 100 = 28.999999999999996) still counts that last frame.

@@ -5,8 +5,9 @@ use wetcloth::FrameMetrics;
 use wetcloth::metrics::COLUMNS;
 
 /// The header of `metrics.csv`, without the line end: `frame` followed by
-/// [`wetcloth::metrics::COLUMNS`]. Units: frame number, s, m^3, Pa, J, ratio, ratio 0..1, m, N.
-pub const CSV_HEADER: &str = "frame,time,air_volume,air_pressure,kinetic_energy,max_stretch,contact_fraction,max_height,grab_force";
+/// [`wetcloth::metrics::COLUMNS`]. Units: frame number, s, m^3, Pa, J, ratio, ratio 0..1, m, N,
+/// m^3.
+pub const CSV_HEADER: &str = "frame,time,air_volume,air_pressure,kinetic_energy,max_stretch,contact_fraction,max_height,grab_force,trapped_air";
 
 /// The header built from [`wetcloth::metrics::COLUMNS`] (equal to [`CSV_HEADER`]; a test keeps
 /// them in step).
@@ -75,6 +76,7 @@ mod tests {
             contact_fraction: 1.0,
             max_height: 1.0 / 3.0,
             grab_force: 2.5,
+            trapped_air: 4e-4,
         };
         csv.write_row(7, &m).unwrap();
         assert_eq!(csv.rows(), 1);
@@ -83,7 +85,7 @@ mod tests {
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(
             lines[1],
-            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5"
+            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5,0.0004"
         );
         let parsed: Vec<f64> = lines[1].split(',').map(|v| v.parse().unwrap()).collect();
         assert_eq!(parsed[1..], m.values());

@@ -65,7 +65,6 @@ pub enum RenderError {
 }
 
 impl RenderError {
-    #[allow(dead_code)] // used by the run reader
     pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Self::Io {
             path: path.into(),

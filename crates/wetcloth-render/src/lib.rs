@@ -18,13 +18,21 @@ pub mod camera;
 mod error;
 pub mod mesh;
 mod offscreen;
+pub mod plot;
 mod renderer;
+mod run;
 
 pub use camera::Camera;
 pub use error::RenderError;
 pub use mesh::{Solid, smooth_normals, tented_grid};
 pub use offscreen::{OFFSCREEN_DEPTH, OFFSCREEN_FORMAT, OFFSCREEN_SAMPLES, Offscreen};
+pub use plot::plot_run;
 pub use renderer::{
     ClothRenderer, GroundPlane, KEY_LIGHT_DIR, Material, MeshView, SceneView, srgb_to_linear,
+};
+pub use run::{
+    CameraSpec, ColliderInfo, FrameSelection, ImageSize, ObjMesh, RenderOptions, RenderSummary,
+    RunInfo, VideoOutcome, ffmpeg_available, list_frames, read_obj, read_run_info, render_run,
+    render_run_with_progress,
 };
 pub use wgpu;

@@ -23,6 +23,7 @@ pub struct Offscreen {
     resolve: wgpu::Texture,
     readback: wgpu::Buffer,
     padded_row: u32,
+    depth: bool,
 }
 
 /// Opens a device on the best adapter available. `WGPU_BACKEND` (e.g. `vulkan`, `gl`) and
@@ -117,6 +118,12 @@ fn targets(device: &wgpu::Device, width: u32, height: u32) -> Targets {
 impl Offscreen {
     /// Opens a headless device and allocates `width` x `height` targets.
     pub fn new(width: u32, height: u32) -> Result<Self, RenderError> {
+        Self::with_depth(width, height, true)
+    }
+
+    /// Like [`Offscreen::new`], with (`depth`) or without a depth buffer. Without one the
+    /// renderer sorts the cloth's triangles as it does for a viewer pass that has none.
+    pub fn with_depth(width: u32, height: u32, depth: bool) -> Result<Self, RenderError> {
         let (device, queue, info) = open_device()?;
         let max = device.limits().max_texture_dimension_2d;
         if width == 0 || height == 0 || width > max || height > max {
@@ -129,7 +136,7 @@ impl Offscreen {
         let renderer = ClothRenderer::new(
             &device,
             OFFSCREEN_FORMAT,
-            Some(OFFSCREEN_DEPTH),
+            depth.then_some(OFFSCREEN_DEPTH),
             OFFSCREEN_SAMPLES,
         );
         let t = targets(&device, width, height);
@@ -144,6 +151,7 @@ impl Offscreen {
             resolve: t.resolve,
             readback: t.readback,
             padded_row: t.padded_row,
+            depth,
         })
     }
 
@@ -183,13 +191,15 @@ impl Offscreen {
                         store: wgpu::StoreOp::Discard,
                     },
                 })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &self.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
+                depth_stencil_attachment: self.depth.then_some({
+                    wgpu::RenderPassDepthStencilAttachment {
+                        view: &self.depth_view,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(1.0),
+                            store: wgpu::StoreOp::Discard,
+                        }),
+                        stencil_ops: None,
+                    }
                 }),
                 timestamp_writes: None,
                 occlusion_query_set: None,

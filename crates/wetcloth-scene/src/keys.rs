@@ -31,7 +31,13 @@ pub const CLOTH: &[&str] = &[
     "strain_limit_iterations",
 ];
 /// Keys of `[air]`.
-pub const AIR: &[&str] = &["enabled", "atmospheric_pressure", "trapped_air"];
+pub const AIR: &[&str] = &[
+    "enabled",
+    "atmospheric_pressure",
+    "trapped_air",
+    "leak_conductance",
+    "pressure_solve",
+];
 /// Keys of a `[[collider]]`, all shapes together.
 pub const COLLIDER: &[&str] = &[
     "shape",

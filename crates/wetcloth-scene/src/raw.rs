@@ -8,8 +8,8 @@ use std::ops::Range;
 use toml::Spanned;
 use toml::de::DeTable;
 use wetcloth::{
-    AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator, Real, Shape,
-    SimConfig, SimulationParams, Vec3,
+    AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator, PressureSolve,
+    Real, Shape, SimConfig, SimulationParams, Vec3,
 };
 
 /// A fixed-length array that, unlike `[T; N]`, refuses extra elements.
@@ -70,6 +70,8 @@ struct RawAir {
     enabled: Option<bool>,
     atmospheric_pressure: Option<Real>,
     trapped_air: Option<Real>,
+    leak_conductance: Option<Real>,
+    pressure_solve: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -298,6 +300,25 @@ fn convert(
         set(&mut air.enabled, a.enabled);
         set(&mut air.atmospheric_pressure, a.atmospheric_pressure);
         set(&mut air.trapped_air, a.trapped_air);
+        set(&mut air.leak_conductance, a.leak_conductance);
+        if let Some(p) = a.pressure_solve {
+            air.pressure_solve = PressureSolve::from_name(p.get_ref()).ok_or_else(|| {
+                let allowed: Vec<String> = PressureSolve::ALL
+                    .iter()
+                    .map(|p| format!("\"{}\"", p.name()))
+                    .collect();
+                SceneError::Invalid {
+                    at: cx.at(p.span()),
+                    key: "air.pressure_solve".into(),
+                    value: format!("{:?}", p.get_ref()),
+                    message: format!(
+                        "unknown pressure solve{}: allowed {}",
+                        did_you_mean(p.get_ref(), &PressureSolve::ALL.map(|p| p.name())),
+                        allowed.join(", ")
+                    ),
+                }
+            })?;
+        }
     }
 
     // No `[[collider]]` at all means the ground (the thesis' table); `collider = []` means none.

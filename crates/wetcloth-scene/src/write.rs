@@ -84,6 +84,8 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
         f(a.atmospheric_pressure)
     );
     let _ = writeln!(o, "trapped_air = {}  # m^3", f(a.trapped_air));
+    let _ = writeln!(o, "leak_conductance = {}  # m^2/s", f(a.leak_conductance));
+    let _ = writeln!(o, "pressure_solve = {}", quote(a.pressure_solve.name()));
     for col in &config.colliders {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[collider]]");

@@ -4,7 +4,7 @@ use crate::math::Real;
 use crate::sim::Simulation;
 
 /// Column names of [`FrameMetrics::values`], in order, as in `metrics.csv` (after `frame`).
-pub const COLUMNS: [&str; 8] = [
+pub const COLUMNS: [&str; 9] = [
     "time",
     "air_volume",
     "air_pressure",
@@ -13,6 +13,7 @@ pub const COLUMNS: [&str; 8] = [
     "contact_fraction",
     "max_height",
     "grab_force",
+    "trapped_air",
 ];
 
 /// Measurements of one state.
@@ -35,6 +36,8 @@ pub struct FrameMetrics {
     pub max_height: Real,
     /// Magnitude of the summed force of all grabs on the cloth, N.
     pub grab_force: Real,
+    /// Air trapped under the cloth, m^3 at atmospheric pressure (changes only with a leak).
+    pub trapped_air: Real,
 }
 
 impl FrameMetrics {
@@ -70,11 +73,12 @@ impl FrameMetrics {
             contact_fraction: contacts as Real / n as Real,
             max_height,
             grab_force: sim.grab_force().length(),
+            trapped_air: sim.trapped_air(),
         }
     }
 
     /// The values in [`COLUMNS`] order.
-    pub fn values(&self) -> [Real; 8] {
+    pub fn values(&self) -> [Real; 9] {
         [
             self.time,
             self.air_volume,
@@ -84,6 +88,7 @@ impl FrameMetrics {
             self.contact_fraction,
             self.max_height,
             self.grab_force,
+            self.trapped_air,
         ]
     }
 }

@@ -84,7 +84,7 @@ impl SelfCollision {
             worst
         };
         let n = p.len();
-        if n >= crate::sim::PARALLEL_MIN_PARTICLES {
+        if crate::exec::use_pool(n) {
             (0..n.div_ceil(4096))
                 .into_par_iter()
                 .map(|c| moved(c * 4096..((c + 1) * 4096).min(n)))
@@ -183,38 +183,27 @@ impl SelfCollision {
         let d = self.diameter;
         let (start, list) = (&self.start, &self.list);
         let pr = &*p;
-        let c = &mut self.corrections;
-        let hits: usize =
-            c.x.par_iter_mut()
-                .zip(c.y.par_iter_mut())
-                .zip(c.z.par_iter_mut())
-                .enumerate()
-                .with_min_len(1024)
-                .map(|(i, ((cx, cy), cz))| {
-                    let mut corr = Vec3::ZERO;
-                    let mut hits = 0;
-                    if !fixed[i] {
-                        let pi = pr.get(i);
-                        for &j in &list[start[i] as usize..start[i + 1] as usize] {
-                            let j = j as usize;
-                            let min = d.min(grid.rest_distance(i, j));
-                            let delta = pi - pr.get(j);
-                            let dist = delta.length();
-                            if dist < min && dist > 0.0 {
-                                hits += 1;
-                                let share = if fixed[j] { 1.0 } else { 0.5 };
-                                corr += delta * (share * (min - dist) / dist);
-                            }
-                        }
+        let hits = crate::exec::jacobi(&mut self.corrections, |i| {
+            let mut corr = Vec3::ZERO;
+            let mut hits = 0;
+            if !fixed[i] {
+                let pi = pr.get(i);
+                for &j in &list[start[i] as usize..start[i + 1] as usize] {
+                    let j = j as usize;
+                    let min = d.min(grid.rest_distance(i, j));
+                    let delta = pi - pr.get(j);
+                    let dist = delta.length();
+                    if dist < min && dist > 0.0 {
+                        hits += 1;
+                        let share = if fixed[j] { 1.0 } else { 0.5 };
+                        corr += delta * (share * (min - dist) / dist);
                     }
-                    (*cx, *cy, *cz) = (corr.x, corr.y, corr.z);
-                    hits
-                })
-                .sum();
+                }
+            }
+            (corr, hits)
+        });
         if hits > 0 {
-            p.x.par_iter_mut().zip(&c.x).for_each(|(a, b)| *a += b);
-            p.y.par_iter_mut().zip(&c.y).for_each(|(a, b)| *a += b);
-            p.z.par_iter_mut().zip(&c.z).for_each(|(a, b)| *a += b);
+            crate::exec::add_assign(p, &self.corrections);
         }
         hits
     }

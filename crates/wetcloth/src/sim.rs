@@ -10,7 +10,7 @@ use crate::grab::{Grab, GrabMotion};
 use crate::kernels::{self, PlaneContact, RowCheck, StepConsts, StepScratch};
 use crate::math::{Real, Soa, Vec3};
 use crate::metrics::FrameMetrics;
-use crate::params::SimConfig;
+use crate::params::{PressureSolve, SimConfig};
 use crate::self_collision::SelfCollision;
 use crate::strain;
 use rayon::prelude::*;
@@ -23,15 +23,7 @@ pub const BLOWUP_STRETCH: Real = 10.0;
 /// particle's sum has a fixed order).
 const MIN_ROWS_PER_TASK: usize = 4;
 
-/// Below this many particles, a step called from outside the thread pool runs on the calling
-/// thread: handing a job to the pool from outside and waiting for it costs microseconds, more
-/// than a small cloth's whole step. [`Simulation::advance`] steps inside the pool, where
-/// splitting a step costs tens of nanoseconds, and parallelises from
-/// [`PARALLEL_MIN_PARTICLES_IN_POOL`] on.
-pub const PARALLEL_MIN_PARTICLES: usize = 16_384;
-
-/// Below this many particles even a step inside the thread pool runs on one thread.
-pub const PARALLEL_MIN_PARTICLES_IN_POOL: usize = 1_024;
+pub use crate::exec::{PARALLEL_MIN_PARTICLES, PARALLEL_MIN_PARTICLES_IN_POOL};
 
 /// A wet cloth on its colliders, with trapped air and grabs.
 ///
@@ -64,10 +56,18 @@ pub struct Simulation {
     self_collision: Option<SelfCollision>,
     scratch: Soa,
     row_checks: Vec<RowCheck>,
+    /// Trapped air v0 now (m^3 at atmospheric pressure): the scene's value, changed by leaks.
+    trapped_air: Real,
+    /// Border particles in order around the cloth (for the leak's open length).
+    border: Vec<u32>,
     step_scratch: StepScratch,
     planes: Vec<PlaneContact>,
     others: Vec<Collider>,
     volume: Real,
+    /// Bubble volume one step earlier, m^3 (for the implicit pressure's prediction).
+    prev_volume: Real,
+    /// The bubble pressure the last step's pressure force used, Pa.
+    applied_pressure: Real,
     steps: u64,
 }
 
@@ -112,6 +112,8 @@ impl Simulation {
             self_collision,
             scratch: Soa::zeros(n),
             row_checks: vec![RowCheck::default(); grid.nz],
+            trapped_air: config.air.trapped_air,
+            border: border_loop(&grid),
             step_scratch: StepScratch::new(grid.nx),
             planes: config
                 .colliders
@@ -131,6 +133,8 @@ impl Simulation {
                 .copied()
                 .collect(),
             volume: 0.0,
+            prev_volume: 0.0,
+            applied_pressure: 0.0,
             steps: 0,
             grid,
             config,
@@ -140,6 +144,8 @@ impl Simulation {
                 key: "cloth.position".into(),
                 message: e.to_string(),
             })?;
+        sim.prev_volume = sim.volume;
+        sim.applied_pressure = sim.air_pressure();
         Ok(sim)
     }
 
@@ -205,13 +211,33 @@ impl Simulation {
         if self.air_enabled {
             air::boyle_pressure(
                 a.atmospheric_pressure,
-                a.trapped_air,
+                self.trapped_air,
                 self.volume,
                 self.cloth_area,
             )
         } else {
             a.atmospheric_pressure
         }
+    }
+
+    /// Trapped air now, m^3 at atmospheric pressure: the scene's `trapped_air` plus what has
+    /// leaked in since (see `AirParams::leak_conductance`).
+    pub fn trapped_air(&self) -> Real {
+        self.trapped_air
+    }
+
+    /// Length of the cloth's border lifted off every collider during the last step, m: a border
+    /// edge counts fully when neither of its particles touched anything, and half when one of
+    /// them did (the gap opens somewhere along it).
+    pub fn open_border_length(&self) -> Real {
+        let n = self.border.len();
+        (0..n)
+            .map(|e| {
+                let (a, b) = (self.border[e] as usize, self.border[(e + 1) % n] as usize);
+                let lifted = u8::from(!self.contact[a]) + u8::from(!self.contact[b]);
+                0.5 * Real::from(lifted) * self.grid.rest_distance(a, b)
+            })
+            .sum()
     }
 
     /// Whether the pressure force acts.
@@ -283,7 +309,55 @@ impl Simulation {
         if let Some(sc) = &mut self.self_collision {
             *sc = SelfCollision::new(self.grid.len(), 2.0 * self.radius);
         }
-        self.update_air_and_check()
+        self.update_air_and_check()?;
+        self.prev_volume = self.volume;
+        Ok(())
+    }
+
+    /// The bubble pressure the last step's pressure force used, Pa: Boyle's law at the start of
+    /// the step ([`PressureSolve::Explicit`]) or the predicted end-of-step pressure
+    /// ([`PressureSolve::Implicit`]); [`Simulation::air_pressure`] is Boyle's law on the current
+    /// state.
+    pub fn applied_pressure(&self) -> Real {
+        self.applied_pressure
+    }
+
+    /// The bubble pressure this step's pressure force uses, Pa (see [`PressureSolve`]).
+    fn step_pressure(&self, dt: Real) -> Real {
+        let a = &self.config.air;
+        let k = a.atmospheric_pressure * self.trapped_air;
+        if a.pressure_solve == PressureSolve::Explicit || k == 0.0 {
+            return self.air_pressure();
+        }
+        // The bubble as a single degree of freedom: over one Verlet step a pressure P moves
+        // every particle not held by a contact by h (P - P_a) S along its normal (h = dt^2/m,
+        // halved on the Taylor first step), which changes the volume by c (P - P_a) with
+        // c = h S^2 n_free. Inertia (damped), gravity and that term predict the volume at the
+        // end of the step; P solves P * v(P) = K = P_a v0:
+        //   c P^2 + a0 P - K = 0,  a0 = v_coast - c P_a,
+        // whose positive root, written without cancellation, is 2K / (a0 + sqrt(a0^2 + 4cK)).
+        let first = self.steps == 0;
+        let h = dt * dt / self.mass * if first { 0.5 } else { 1.0 };
+        let s = self.area_per_particle;
+        let held = self
+            .contact
+            .iter()
+            .zip(&self.fixed)
+            .filter(|(c, f)| **c || **f)
+            .count();
+        let free = (self.grid.len() - held) as Real;
+        let c = h * s * s * free;
+        let up = self.sticking.map_or(Vec3::Y, |(_, n)| n);
+        let keep = (1.0 - self.config.cloth.damping * dt).max(0.0);
+        let gravity = h * self.mass * self.config.simulation.gravity.dot(up) * s * free;
+        let coast = self.volume + keep * (self.volume - self.prev_volume) + gravity;
+        let a0 = coast - c * a.atmospheric_pressure;
+        let root = (a0 * a0 + 4.0 * c * k).sqrt();
+        if a0 + root > 0.0 {
+            2.0 * k / (a0 + root)
+        } else {
+            self.air_pressure()
+        }
     }
 
     /// Resets to the state at t = 0 (the demo's button 3), keeping the air switch.
@@ -331,11 +405,13 @@ impl Simulation {
 
         // 2-3. Forces, Verlet, contacts: one pass; x(t+dt) overwrites x(t-dt) in place.
         let c = &self.config;
-        let pressure_area = if self.air_enabled {
-            (self.air_pressure() - c.air.atmospheric_pressure) * self.area_per_particle
+        self.applied_pressure = if self.air_enabled {
+            self.step_pressure(dt)
         } else {
-            0.0
+            c.air.atmospheric_pressure
         };
+        let pressure_area =
+            (self.applied_pressure - c.air.atmospheric_pressure) * self.area_per_particle;
         let consts = StepConsts {
             grid: &self.grid,
             planes: &self.planes,
@@ -414,6 +490,16 @@ impl Simulation {
         }
         std::mem::swap(&mut self.x, &mut self.prev);
 
+        // Air leaking in (or out) where the border is lifted off the surface, at the pressure of
+        // the step's start (explicit Euler on the amount of air).
+        let a = &self.config.air;
+        if self.air_enabled && a.leak_conductance > 0.0 && a.atmospheric_pressure > 0.0 {
+            let pa = a.atmospheric_pressure;
+            let flow =
+                a.leak_conductance * self.open_border_length() * (pa - self.air_pressure()) / pa;
+            self.trapped_air = (self.trapped_air + flow * dt).max(0.0);
+        }
+
         // 4. Grabs: cancel the particle's own motion, carry it to its target, and record the
         // force of the hand that does so.
         let m_dt2 = self.mass / (dt * dt);
@@ -452,18 +538,13 @@ impl Simulation {
         }
         if corrected && !self.config.colliders.is_empty() {
             let (colliders, r, fixed) = (&self.config.colliders, self.radius, &self.fixed);
-            let p = &mut self.x;
-            p.x.par_iter_mut()
-                .zip(p.y.par_iter_mut())
-                .zip(p.z.par_iter_mut())
-                .enumerate()
-                .with_min_len(1024)
-                .for_each(|(k, ((x, y), z))| {
-                    if !fixed[k] {
-                        let q = contact::project(colliders, Vec3::new(*x, *y, *z), r);
-                        (*x, *y, *z) = (q.x, q.y, q.z);
-                    }
-                });
+            crate::exec::map_in_place(&mut self.x, |k, p| {
+                if fixed[k] {
+                    p
+                } else {
+                    contact::project(colliders, p, r)
+                }
+            });
         }
 
         self.steps += 1;
@@ -504,19 +585,14 @@ impl Simulation {
                 limit: BLOWUP_STRETCH,
             });
         }
+        self.prev_volume = self.volume;
         self.volume = self.row_checks.iter().map(|r| r.volume).sum();
         Ok(())
     }
 
     /// Whether the row passes go to the thread pool (results are identical either way).
     fn parallel(&self) -> bool {
-        let inside = rayon::current_thread_index().is_some();
-        let min = if inside {
-            PARALLEL_MIN_PARTICLES_IN_POOL
-        } else {
-            PARALLEL_MIN_PARTICLES
-        };
-        self.grid.len() >= min && rayon::current_num_threads() > 1
+        crate::exec::use_pool(self.grid.len())
     }
 
     /// Rows per parallel task: two tasks per thread (so a briefly descheduled thread does not
@@ -546,4 +622,15 @@ thread_local! {
     /// Spring scratch of a pool thread, sized on first use (no allocation in later steps).
     static THREAD_SCRATCH: std::cell::RefCell<StepScratch> =
         std::cell::RefCell::new(StepScratch::default());
+}
+
+/// The border particles of `grid` in order around it (each once).
+fn border_loop(grid: &Grid) -> Vec<u32> {
+    let (nx, nz) = (grid.nx, grid.nz);
+    let mut b = Vec::with_capacity(2 * (nx + nz));
+    b.extend((0..nx).map(|i| grid.index(i, 0)));
+    b.extend((1..nz).map(|j| grid.index(nx - 1, j)));
+    b.extend((0..nx - 1).rev().map(|i| grid.index(i, nz - 1)));
+    b.extend((1..nz - 1).rev().map(|j| grid.index(0, j)));
+    b.into_iter().map(|k| k as u32).collect()
 }

@@ -1,5 +1,5 @@
 //! Strain limiting after Provot (1995), "Deformation constraints in a mass-spring model to
-//! describe rigid cloth behavior" (the thesis' reference [2]).
+//! describe rigid cloth behavior" (the thesis' reference \[2\]).
 //!
 //! After the step, every structural or shear spring longer than `(1 + limit)` times its rest
 //! length is shortened back to that length by moving its two ends towards each other (a
@@ -9,7 +9,6 @@
 
 use crate::cloth::{Grid, STENCIL};
 use crate::math::{Real, Soa, Vec3};
-use rayon::prelude::*;
 
 /// Applies `iterations` Jacobi passes of the strain limiter with relative limit `limit` to `p`.
 /// `scratch` must hold as many vectors as `p`. Returns the number of springs corrected in the
@@ -26,53 +25,36 @@ pub fn limit_strain(
     let rest: [Real; 8] = STENCIL.map(|n| grid.rest_length(n) * (1.0 + limit));
     for it in 0..iterations {
         let pr = &*p;
-        let corrected: usize = scratch
-            .x
-            .par_iter_mut()
-            .zip(scratch.y.par_iter_mut())
-            .zip(scratch.z.par_iter_mut())
-            .enumerate()
-            .with_min_len(1024)
-            .map(|(k, ((cx, cy), cz))| {
-                let mut corr = Vec3::ZERO;
-                let mut count = 0;
-                if !fixed[k] {
-                    let (i, j) = ((k % grid.nx) as isize, (k / grid.nx) as isize);
-                    let pk = pr.get(k);
-                    for (n, &max_len) in STENCIL.iter().zip(&rest) {
-                        let (a, b) = (i + n.di, j + n.dj);
-                        if a < 0 || b < 0 || a >= grid.nx as isize || b >= grid.nz as isize {
-                            continue;
-                        }
-                        let o = grid.index(a as usize, b as usize);
-                        let d = pr.get(o) - pk;
-                        let len = d.length();
-                        if len > max_len {
-                            count += 1;
-                            let share = if fixed[o] { 1.0 } else { 0.5 };
-                            corr += d * (share * (len - max_len) / len);
-                        }
+        let corrected = crate::exec::jacobi(scratch, |k| {
+            let mut corr = Vec3::ZERO;
+            let mut count = 0;
+            if !fixed[k] {
+                let (i, j) = ((k % grid.nx) as isize, (k / grid.nx) as isize);
+                let pk = pr.get(k);
+                for (n, &max_len) in STENCIL.iter().zip(&rest) {
+                    let (a, b) = (i + n.di, j + n.dj);
+                    if a < 0 || b < 0 || a >= grid.nx as isize || b >= grid.nz as isize {
+                        continue;
+                    }
+                    let o = grid.index(a as usize, b as usize);
+                    let d = pr.get(o) - pk;
+                    let len = d.length();
+                    if len > max_len {
+                        count += 1;
+                        let share = if fixed[o] { 1.0 } else { 0.5 };
+                        corr += d * (share * (len - max_len) / len);
                     }
                 }
-                (*cx, *cy, *cz) = (corr.x, corr.y, corr.z);
-                count
-            })
-            .sum();
+            }
+            (corr, count)
+        });
         if it == 0 {
             first = corrected;
         }
         if corrected == 0 {
             break;
         }
-        p.x.par_iter_mut()
-            .zip(&scratch.x)
-            .for_each(|(a, b)| *a += b);
-        p.y.par_iter_mut()
-            .zip(&scratch.y)
-            .for_each(|(a, b)| *a += b);
-        p.z.par_iter_mut()
-            .zip(&scratch.z)
-            .for_each(|(a, b)| *a += b);
+        crate::exec::add_assign(p, scratch);
     }
     first
 }

@@ -1,0 +1,186 @@
+//! `render_run` on a small run directory written here (OBJ frames and run.json in the format
+//! of `wetcloth run`): the PNGs exist, have the asked size and show the cloth where it is.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use wetcloth_render::{
+    CameraSpec, FrameSelection, ImageSize, RenderError, RenderOptions, VideoOutcome, render_run,
+    render_run_with_progress, tented_grid,
+};
+
+const N: usize = 12;
+
+/// A fresh directory under the test target directory.
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("wetcloth-render-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes `frames` OBJ frames of a 30 cm cloth whose centre rises over time, like the export
+/// writer does (v, vt, vn, faces v/vt/vn, 1-based), and a run.json unless `json` is false.
+fn write_run(dir: &Path, frames: usize, json: bool) {
+    std::fs::create_dir_all(dir.join("frames")).unwrap();
+    for f in 0..frames {
+        let lift = 0.08 * f as f32 / frames.max(2) as f32;
+        let (p, idx) = tented_grid(N, 0.3, 0.002, lift);
+        let mut s = String::from("# test frame\no cloth\n");
+        for v in &p {
+            writeln!(s, "v {} {} {}", v[0], v[1], v[2]).unwrap();
+        }
+        for k in 0..p.len() {
+            writeln!(
+                s,
+                "vt {} {}",
+                (k % N) as f32 / (N - 1) as f32,
+                (k / N) as f32 / (N - 1) as f32
+            )
+            .unwrap();
+            writeln!(s, "vn 0 1 0").unwrap();
+        }
+        for t in idx.chunks(3) {
+            let [a, b, c] = [t[0] + 1, t[1] + 1, t[2] + 1];
+            writeln!(s, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}").unwrap();
+        }
+        std::fs::write(dir.join(format!("frames/frame_{f:04}.obj")), s).unwrap();
+    }
+    if json {
+        let text = format!(
+            r#"{{
+  "name": "test-tent",
+  "resolution": [{N}, {N}],
+  "size": [0.3, 0.3],
+  "particle_radius": 0.002,
+  "time_step": 0.0001,
+  "frame_rate": 24.0,
+  "duration": 1.0,
+  "frames": {frames},
+  "complete": true,
+  "colliders": [
+    {{"shape": "plane", "point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "friction": 0.6}},
+    {{"shape": "sphere", "center": [0.3, 0.05, 0.0], "radius": 0.05, "friction": 0.5}}
+  ],
+  "grabs": [[6, 6]]
+}}
+"#
+        );
+        std::fs::write(dir.join("run.json"), text).unwrap();
+    }
+}
+
+fn opts(dir: &Path) -> RenderOptions {
+    RenderOptions {
+        size: ImageSize {
+            width: 160,
+            height: 120,
+        },
+        ..RenderOptions::new(dir)
+    }
+}
+
+#[test]
+fn a_run_renders_to_pngs_showing_the_cloth_and_a_video_when_ffmpeg_is_there() {
+    let dir = fresh_dir("run");
+    write_run(&dir, 4, true);
+    let mut calls = Vec::new();
+    let summary =
+        render_run_with_progress(opts(&dir), &mut |done, total| calls.push((done, total)))
+            .expect("render_run failed (a graphics adapter is needed: mesa-vulkan-drivers)");
+    println!("{summary}");
+    assert_eq!(calls, vec![(1, 4), (2, 4), (3, 4), (4, 4)]);
+    assert_eq!(summary.out_dir, dir.join("render"));
+    assert_eq!(summary.images.len(), 4);
+    for (k, png) in summary.images.iter().enumerate() {
+        assert_eq!(png, &dir.join(format!("render/frame_{k:04}.png")));
+        let img = image::open(png).unwrap().to_rgba8();
+        assert_eq!(img.dimensions(), (160, 120));
+        // A particle near the cloth's corner, projected with the run's camera, is drawn in the
+        // satin's rose.
+        let (p, _) = tented_grid(N, 0.3, 0.002, 0.08 * k as f32 / 4.0);
+        let q = summary.camera.project(p[N + 1], [160, 120]).unwrap();
+        let c = img.get_pixel(q[0] as u32, q[1] as u32).0;
+        assert!(
+            c[0] as i32 > c[1] as i32 + 12,
+            "frame {k}: cloth drawn as {c:?}"
+        );
+    }
+    match (&summary.video, wetcloth_render::ffmpeg_available()) {
+        (VideoOutcome::Written(p), true) => {
+            assert_eq!(p, &dir.join("render/test-tent.mp4"));
+            assert!(std::fs::metadata(p).unwrap().len() > 1000);
+        }
+        (VideoOutcome::FfmpegMissing, false) => {
+            assert!(summary.to_string().contains("ffmpeg is not on the PATH"));
+        }
+        (v, has) => panic!("video {v:?} with ffmpeg available: {has}"),
+    }
+}
+
+#[test]
+fn options_select_frames_camera_and_output_and_run_json_may_be_missing() {
+    let dir = fresh_dir("options");
+    write_run(&dir, 6, false);
+    let out = dir.join("elsewhere");
+    let o = RenderOptions {
+        out_dir: Some(out.clone()),
+        frames: Some("1..=5:2".parse::<FrameSelection>().unwrap()),
+        camera: Some("yaw=0;pitch=89;distance=0.7".parse::<CameraSpec>().unwrap()),
+        particles: true,
+        video: false,
+        ..opts(&dir)
+    };
+    let summary = render_run(o).unwrap();
+    let names: Vec<String> = summary
+        .images
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        names,
+        ["frame_0001.png", "frame_0003.png", "frame_0005.png"]
+    );
+    assert!(out.join("frame_0003.png").exists());
+    assert_eq!(summary.video, VideoOutcome::Disabled);
+    // Looking straight down from 0.7 m: the cloth's centre is the image centre, and the table
+    // (the default plane y = 0 without run.json) surrounds it.
+    let img = image::open(out.join("frame_0001.png")).unwrap().to_rgba8();
+    let c = img.get_pixel(80, 60).0;
+    assert!(c[0] as i32 > c[1] as i32 + 12, "centre drawn as {c:?}");
+    let t = img.get_pixel(3, 60).0;
+    assert!(
+        (t[0] as i32 - t[2] as i32).abs() < 12,
+        "table drawn as {t:?}"
+    );
+}
+
+#[test]
+fn missing_and_malformed_inputs_are_reported_with_their_file() {
+    let dir = fresh_dir("errors");
+    let e = render_run(opts(&dir)).unwrap_err();
+    assert!(matches!(e, RenderError::NoFrames(_)), "{e}");
+    assert!(e.to_string().contains("frames/frame_NNNN.obj"), "{e}");
+
+    write_run(&dir, 1, true);
+    std::fs::write(
+        dir.join("run.json"),
+        "{\n  \"name\": \"x\",\n  \"frame_rate\": oops\n}\n",
+    )
+    .unwrap();
+    let e = render_run(opts(&dir)).unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.contains("run.json:3"), "{msg}");
+
+    std::fs::remove_file(dir.join("run.json")).unwrap();
+    std::fs::write(dir.join("frames/frame_0000.obj"), "v 1 2\nf 1 2 3\n").unwrap();
+    let msg = render_run(opts(&dir)).unwrap_err().to_string();
+    assert!(msg.contains("frame_0000.obj"), "{msg}");
+
+    let e = render_run(RenderOptions {
+        frames: Some("50..60".parse().unwrap()),
+        ..opts(&dir)
+    })
+    .unwrap_err();
+    assert!(matches!(e, RenderError::NoFrames(_)), "{e}");
+}
