@@ -218,7 +218,7 @@ impl ViewerApp {
             last_recorded: 0,
             message: None,
             show_help: false,
-            player: (!script.is_empty() || opts.script_given).then(|| Player {
+            player: (opts.script.is_some() || opts.screenshot.is_some()).then(|| Player {
                 commands: script.into(),
                 started: None,
                 pointer: [0.5, 0.5],
@@ -384,6 +384,13 @@ impl ViewerApp {
         if ctx.egui_wants_keyboard_input() {
             return;
         }
+        // A button clicked with the mouse keeps the focus, and Space would press it again on
+        // top of the shortcut: keyboard focus stays with text fields only.
+        ctx.memory_mut(|m| {
+            if let Some(id) = m.focused() {
+                m.surrender_focus(id);
+            }
+        });
         let pressed: Vec<(Key, Modifiers)> = ctx.input(|i| {
             i.events
                 .iter()

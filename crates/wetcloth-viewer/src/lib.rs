@@ -74,9 +74,6 @@ pub struct ViewerOptions {
     pub record_dir: Option<PathBuf>,
     /// Initial window size, logical pixels.
     pub window_size: [f32; 2],
-    /// Set when a script is given, even an empty one.
-    #[doc(hidden)]
-    pub script_given: bool,
 }
 
 impl ViewerOptions {
@@ -91,7 +88,6 @@ impl ViewerOptions {
             exit_after_script: false,
             record_dir: None,
             window_size: [1180.0, 760.0],
-            script_given: false,
         }
     }
 
@@ -140,6 +136,15 @@ pub fn display_available() -> Result<(), String> {
     Ok(())
 }
 
+/// Whether a window error means there is no display to connect to (winit's wording when the X
+/// or Wayland connection cannot be made, e.g. "Failed to open connection to X server").
+fn is_display_error(text: &str) -> bool {
+    let lower = text.to_lowercase();
+    ["x server", "display", "wayland", "x11"]
+        .iter()
+        .any(|w| lower.contains(w))
+}
+
 /// Opens the viewer window and runs until it is closed.
 pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
     display_available().map_err(ViewerError::NoDisplay)?;
@@ -148,8 +153,6 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
         Some(p) => script::load(p)?,
         None => Vec::new(),
     };
-    let mut opts = opts;
-    opts.script_given |= opts.script.is_some() || opts.screenshot.is_some();
 
     let native = eframe::NativeOptions {
         viewport: eframe::egui::ViewportBuilder::default()
@@ -174,13 +177,7 @@ pub fn run(opts: ViewerOptions) -> Result<(), ViewerError> {
     );
     if let Err(e) = result {
         let text = e.to_string();
-        // winit's wording when the X or Wayland connection cannot be made.
-        let lower = text.to_lowercase();
-        if lower.contains("display")
-            || lower.contains("xopendisplay")
-            || lower.contains("wayland")
-            || lower.contains("x11")
-        {
+        if is_display_error(&text) {
             return Err(ViewerError::NoDisplay(text));
         }
         return Err(ViewerError::Window(text));
@@ -203,6 +200,15 @@ mod tests {
         assert!(s.contains("no display"), "{s}");
         assert!(s.contains("wetcloth run"), "{s}");
         assert!(s.contains("xvfb-run"), "{s}");
+    }
+
+    #[test]
+    fn winit_connection_failures_read_as_no_display() {
+        assert!(is_display_error(
+            "winit EventLoopError: os error at ...: Failed to open connection to X server"
+        ));
+        assert!(is_display_error("Failed to connect to the Wayland display"));
+        assert!(!is_display_error("wgpu error: no suitable adapter"));
     }
 
     #[test]
