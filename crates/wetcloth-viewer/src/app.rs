@@ -67,16 +67,31 @@ impl Edit {
         }
     }
 
+    /// `base` with the edited values; values left alone keep their exact scene value (the
+    /// sliders show rounded ones, e.g. a time step of 8.333e-5 s as 1/12000 s).
     fn apply(&self, base: &SimConfig) -> SimConfig {
+        let now = Self::from_config(base);
         let mut c = base.clone();
-        c.air.trapped_air = self.air_cm3 * 1e-6;
-        c.cloth.structural_stiffness = self.structural;
-        c.cloth.shear_stiffness = self.shear;
-        for col in &mut c.colliders {
-            col.friction = self.friction;
+        if self.air_cm3 != now.air_cm3 {
+            c.air.trapped_air = self.air_cm3 * 1e-6;
         }
-        c.cloth.damping = self.damping;
-        c.simulation.time_step = 1.0 / self.rate;
+        if self.structural != now.structural {
+            c.cloth.structural_stiffness = self.structural;
+        }
+        if self.shear != now.shear {
+            c.cloth.shear_stiffness = self.shear;
+        }
+        if self.friction != now.friction {
+            for col in &mut c.colliders {
+                col.friction = self.friction;
+            }
+        }
+        if self.damping != now.damping {
+            c.cloth.damping = self.damping;
+        }
+        if self.rate != now.rate {
+            c.simulation.time_step = 1.0 / self.rate;
+        }
         if self.resolution != c.cloth.resolution[0] {
             // Keep the aspect of non-square grids; scene grabs name particles of the old grid.
             let r0 = c.cloth.resolution;
@@ -1107,7 +1122,7 @@ impl ViewerApp {
             ui.add(
                 egui::TextEdit::singleline(&mut self.scene_path)
                     .desired_width(w)
-                    .hint_text("scenes/thesis_demo.toml"),
+                    .hint_text("scenes/air-400.toml"),
             );
             if ui.button("Open").clicked() {
                 self.open_scene();
@@ -1448,5 +1463,52 @@ impl eframe::App for ViewerApp {
         if scripted && !self.closing {
             ctx.request_repaint();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edits_round_trip_and_map_to_the_scene_keys() {
+        let mut cfg = SimConfig::thesis_demo();
+        cfg.grabs.clear();
+        let e = Edit::from_config(&cfg);
+        assert_eq!(e.apply(&cfg), cfg, "no edit, no change");
+        assert_eq!(e.rate, 12000.0);
+        let mut e2 = e.clone();
+        e2.air_cm3 = 400.0;
+        e2.friction = 0.3;
+        e2.rate = 16000.0;
+        let c = e2.apply(&cfg);
+        assert!((c.air.trapped_air - 400e-6).abs() < 1e-12);
+        assert!(c.colliders.iter().all(|k| k.friction == 0.3));
+        assert!((c.simulation.time_step - 1.0 / 16000.0).abs() < 1e-15);
+        assert_eq!(c.cloth.resolution, cfg.cloth.resolution);
+    }
+
+    #[test]
+    fn untouched_values_keep_their_exact_scene_value() {
+        let mut cfg = SimConfig::thesis_demo();
+        cfg.simulation.time_step = 8.333e-5;
+        let mut e = Edit::from_config(&cfg);
+        e.damping = 1.0;
+        let c = e.apply(&cfg);
+        assert_eq!(c.simulation.time_step, 8.333e-5);
+        assert_eq!(c.cloth.damping, 1.0);
+    }
+
+    #[test]
+    fn a_new_resolution_keeps_the_aspect_and_drops_scene_grabs() {
+        let mut cfg = SimConfig::thesis_demo();
+        cfg.cloth.resolution = [40, 20];
+        cfg.grabs[0].particle = [20, 10];
+        let mut e = Edit::from_config(&cfg);
+        e.resolution = 30;
+        let c = e.apply(&cfg);
+        assert_eq!(c.cloth.resolution, [30, 15]);
+        assert!(c.grabs.is_empty(), "grabs name particles of the old grid");
+        assert!(c.validate().is_ok());
     }
 }
