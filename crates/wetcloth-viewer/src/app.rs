@@ -978,7 +978,7 @@ impl ViewerApp {
                 row(
                     ui,
                     "Bubble volume",
-                    format!("{:8.2} cm³", m.air_volume * 1e6).into(),
+                    format!("{:8.2} cm³", no_negative_zero(m.air_volume * 1e6, 0.005)).into(),
                 );
                 row(
                     ui,
@@ -1360,6 +1360,12 @@ pub(crate) fn save_png(path: &Path, image: &egui::ColorImage) -> Result<(), Stri
         image::ExtendedColorType::Rgba8,
     )
     .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// `x`, or 0 when it would print as "-0.00" (round-off around an empty bubble); `half_ulp` is
+/// half the last printed digit.
+fn no_negative_zero(x: f64, half_ulp: f64) -> f64 {
+    if x.abs() < half_ulp { 0.0 } else { x }
 }
 
 /// The sphere and box colliders, for drawing.
