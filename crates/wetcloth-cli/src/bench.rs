@@ -87,6 +87,8 @@ pub struct Measurement {
     pub time_step: f64,
     /// Whether self-collision was on.
     pub self_collision: bool,
+    /// Heap memory the simulation held at the end, bytes (`Simulation::memory_bytes`).
+    pub memory_bytes: usize,
     /// Fastest and slowest window, steps per second.
     pub steps_per_second_range: [f64; 2],
     /// Timed windows.
@@ -191,6 +193,7 @@ fn measure(
             real_time_factor: median * dt,
             time_step: dt,
             self_collision,
+            memory_bytes: sim.memory_bytes(),
             steps_per_second_range: [rates[0], rates[rates.len() - 1]],
             windows: WINDOWS,
             steps: per_window * WINDOWS as u64,
@@ -204,19 +207,26 @@ fn measure(
 
 fn print_table(results: &[Measurement]) {
     println!(
-        "{:>9} {:>7} {:>12} {:>16} {:>10} {:>14}",
-        "particles", "threads", "steps/s", "particle-steps/s", "real-time", "thesis steps/s"
+        "{:>9} {:>7} {:>12} {:>16} {:>10} {:>14} {:>10}",
+        "particles",
+        "threads",
+        "steps/s",
+        "particle-steps/s",
+        "real-time",
+        "thesis steps/s",
+        "memory"
     );
     for m in results {
         println!(
-            "{:>9} {:>7} {:>12.0} {:>16.3e} {:>9.2}x {:>14}",
+            "{:>9} {:>7} {:>12.0} {:>16.3e} {:>9.2}x {:>14} {:>7.1} MB",
             m.particles,
             m.threads,
             m.steps_per_second,
             m.particle_steps_per_second,
             m.real_time_factor,
             m.thesis_steps_per_second
-                .map_or_else(|| "-".to_string(), |v| format!("{v:.0}"))
+                .map_or_else(|| "-".to_string(), |v| format!("{v:.0}")),
+            m.memory_bytes as f64 / 1e6
         );
     }
     if let Some(m) = results.first() {

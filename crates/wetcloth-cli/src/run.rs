@@ -23,8 +23,8 @@ use wetcloth_scene::Scene;
 #[derive(Args, Debug)]
 pub struct RunArgs {
     /// Scene file (TOML). Without one, the built-in thesis demo runs: a 30 cm satin cloth,
-    /// 50 x 50 particles, stuck to a table, pinched at its centre and lifted with the air force
-    /// on.
+    /// 50 x 50 particles, with 400 cm^3 of air under it, pinched at its centre and lifted 5 cm
+    /// with the air force on.
     pub scene: Option<PathBuf>,
 
     /// Output directory; default out/NAME, NAME being the scene's name. Frame files of an

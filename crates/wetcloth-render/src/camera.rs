@@ -63,8 +63,24 @@ impl Camera {
     }
 
     /// Like [`Camera::framing`], from the given `yaw` and `pitch` (radians, as in
-    /// [`Camera::orbit`]).
+    /// [`Camera::orbit`]), for a 4:3 frame.
     pub fn framing_from(bounds_min: [f32; 3], bounds_max: [f32; 3], yaw: f32, pitch: f32) -> Self {
+        Self::framing_aspect(bounds_min, bounds_max, yaw, pitch, 4.0 / 3.0)
+    }
+
+    /// Like [`Camera::framing_from`], filling a frame of the given width / height `aspect`.
+    pub fn framing_aspect(
+        bounds_min: [f32; 3],
+        bounds_max: [f32; 3],
+        yaw: f32,
+        pitch: f32,
+        aspect: f32,
+    ) -> Self {
+        let aspect = if aspect.is_finite() && aspect > 0.0 {
+            aspect
+        } else {
+            4.0 / 3.0
+        };
         let (target, radius) = framing_target_radius(bounds_min, bounds_max);
         let (lo, hi) = (
             Vec3::from(target) - Vec3::splat(radius),
@@ -78,34 +94,65 @@ impl Camera {
         } else {
             (lo, hi)
         };
-        // The smallest distance at which every corner of the box lies within 85 % of the
-        // frame (NDC), found by bisection: the sphere bound alone leaves flat cloths small.
-        let fits = |d: f32| {
-            let cam = Self::orbit(target, yaw, pitch, d);
-            let m = cam.view_proj(4.0 / 3.0);
-            (0..8).all(|i| {
-                let p = Vec3::new(
+        let corners: Vec<Vec3> = (0..8)
+            .map(|i| {
+                Vec3::new(
                     if i & 1 == 0 { lo.x } else { hi.x },
                     if i & 2 == 0 { lo.y } else { hi.y },
                     if i & 4 == 0 { lo.z } else { hi.z },
-                );
-                let c = m * p.extend(1.0);
-                c.w > 0.0 && (c.x / c.w).abs() <= 0.85 && (c.y / c.w).abs() <= 0.85
+                )
             })
-        };
-        let (mut near, mut far) = (radius * 0.5, radius * 20.0);
-        if !fits(far) {
-            return Self::orbit(target, yaw, pitch, far);
-        }
-        for _ in 0..40 {
-            let mid = 0.5 * (near + far);
-            if fits(mid) {
-                far = mid;
-            } else {
-                near = mid;
+            .collect();
+        // NDC bounds (min x, min y, max x, max y) of the corners; None if one is behind the eye.
+        let ndc_box = |cam: &Self| {
+            let m = cam.view_proj(aspect);
+            let mut b = [
+                f32::INFINITY,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+                f32::NEG_INFINITY,
+            ];
+            for p in &corners {
+                let c = m * p.extend(1.0);
+                if c.w <= 0.0 {
+                    return None;
+                }
+                let (x, y) = (c.x / c.w, c.y / c.w);
+                b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
             }
+            Some(b)
+        };
+        // The smallest distance at which every corner lies within 85 % of the frame, found by
+        // bisection; then the target moves so that the corners' picture is centred, and again.
+        let mut target = Vec3::from(target);
+        let mut distance = radius * 20.0;
+        for _ in 0..3 {
+            let fits = |d: f32| {
+                ndc_box(&Self::orbit(target.to_array(), yaw, pitch, d))
+                    .is_some_and(|b| b[0] >= -0.85 && b[1] >= -0.85 && b[2] <= 0.85 && b[3] <= 0.85)
+            };
+            let (mut near, mut far) = (radius * 0.2, radius * 20.0);
+            if !fits(far) {
+                break;
+            }
+            for _ in 0..40 {
+                let mid = 0.5 * (near + far);
+                if fits(mid) {
+                    far = mid;
+                } else {
+                    near = mid;
+                }
+            }
+            distance = far;
+            let cam = Self::orbit(target.to_array(), yaw, pitch, distance);
+            let Some(b) = ndc_box(&cam) else { break };
+            let view = cam.view();
+            let (right, up) = (view.row(0).truncate(), view.row(1).truncate());
+            let half_h = distance * (cam.fov_y * 0.5).tan();
+            target += right * (0.5 * (b[0] + b[2]) * half_h * aspect)
+                + up * (0.5 * (b[1] + b[3]) * half_h);
         }
-        Self::orbit(target, yaw, pitch, far)
+        Self::orbit(target.to_array(), yaw, pitch, distance)
     }
 
     /// The view matrix (world to eye space, right-handed, looking down -Z).

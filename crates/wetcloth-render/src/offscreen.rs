@@ -155,6 +155,22 @@ impl Offscreen {
         })
     }
 
+    /// The device and queue, to create more GPU resources on the same device.
+    pub fn device_queue(&self) -> (&wgpu::Device, &wgpu::Queue) {
+        (&self.device, &self.queue)
+    }
+
+    /// Replaces the renderer's materials (see [`ClothRenderer::set_materials`]).
+    pub fn set_materials(
+        &mut self,
+        cloth: Option<&crate::renderer::Material>,
+        table: Option<&crate::renderer::Material>,
+        solids: Option<&crate::renderer::Material>,
+    ) {
+        self.renderer
+            .set_materials(&self.queue, cloth, table, solids);
+    }
+
     /// Image size `[width, height]`, px.
     pub fn size(&self) -> [u32; 2] {
         self.size

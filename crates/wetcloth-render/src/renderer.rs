@@ -117,8 +117,8 @@ impl Material {
     /// Polyester satin in a warm pastel (a pale dusty rose): glossy front, matte back.
     pub fn satin() -> Self {
         Self {
-            front: srgb_to_linear([236, 186, 190]),
-            back: srgb_to_linear([222, 184, 188]),
+            front: srgb_to_linear([228, 170, 176]),
+            back: srgb_to_linear([214, 170, 174]),
             specular: 0.35,
             exponent: 18.0,
             sheen: 0.35,
@@ -129,8 +129,8 @@ impl Material {
     /// The table: a light, warm grey laminate, nearly matte.
     pub fn table() -> Self {
         Self {
-            front: srgb_to_linear([168, 166, 162]),
-            back: srgb_to_linear([168, 166, 162]),
+            front: srgb_to_linear([146, 145, 142]),
+            back: srgb_to_linear([146, 145, 142]),
             specular: 0.08,
             exponent: 24.0,
             sheen: 0.0,
@@ -200,7 +200,7 @@ struct Dot {
 }
 
 /// Side of the square shadow map, texels.
-const SHADOW_SIZE: u32 = 2048;
+const SHADOW_SIZE: u32 = 1024;
 const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
 /// Unit direction towards the key light, fixed in the world (up, from -x and +z) so that the
@@ -259,6 +259,9 @@ pub struct ClothRenderer {
     globals_bind: wgpu::BindGroup,
     shadow_globals_bind: wgpu::BindGroup,
     cloth_material: wgpu::BindGroup,
+    cloth_material_buffer: wgpu::Buffer,
+    solid_material_buffer: wgpu::Buffer,
+    table_material_buffer: wgpu::Buffer,
     solid_material: wgpu::BindGroup,
     table_material: wgpu::BindGroup,
     background: wgpu::RenderPipeline,
@@ -416,20 +419,21 @@ impl ClothRenderer {
             let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("wetcloth material"),
                 contents: bytemuck::bytes_of(&m.uniform()),
-                usage: wgpu::BufferUsages::UNIFORM,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             });
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
+            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("wetcloth material"),
                 layout: &material_layout,
                 entries: &[wgpu::BindGroupEntry {
                     binding: 0,
                     resource: buffer.as_entire_binding(),
                 }],
-            })
+            });
+            (buffer, bind)
         };
-        let cloth_material = material(Material::satin());
-        let solid_material = material(Material::solid());
-        let table_material = material(Material::table());
+        let (cloth_material_buffer, cloth_material) = material(Material::satin());
+        let (solid_material_buffer, solid_material) = material(Material::solid());
+        let (table_material_buffer, table_material) = material(Material::table());
 
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("wetcloth scene"),
@@ -569,6 +573,9 @@ impl ClothRenderer {
             globals_bind,
             shadow_globals_bind,
             cloth_material,
+            cloth_material_buffer,
+            solid_material_buffer,
+            table_material_buffer,
             solid_material,
             table_material,
             background,
@@ -588,6 +595,26 @@ impl ClothRenderer {
             ground_on: false,
             dot_instances: GrowBuffer::new(device, "wetcloth dots", vb),
             dot_count: 0,
+        }
+    }
+
+    /// Replaces the materials (defaults: [`Material::satin`], [`Material::table`],
+    /// [`Material::solid`]); `None` keeps one as it is.
+    pub fn set_materials(
+        &self,
+        queue: &wgpu::Queue,
+        cloth: Option<&Material>,
+        table: Option<&Material>,
+        solids: Option<&Material>,
+    ) {
+        for (m, buffer) in [
+            (cloth, &self.cloth_material_buffer),
+            (table, &self.table_material_buffer),
+            (solids, &self.solid_material_buffer),
+        ] {
+            if let Some(m) = m {
+                queue.write_buffer(buffer, 0, bytemuck::bytes_of(&m.uniform()));
+            }
         }
     }
 
@@ -882,6 +909,12 @@ impl ClothRenderer {
         }
     }
 }
+
+// The viewer keeps the renderer in egui-wgpu's callback resources, which must be Send + Sync.
+const _: fn() = || {
+    fn send_sync<T: Send + Sync + 'static>() {}
+    send_sync::<ClothRenderer>();
+};
 
 /// Sorts triangles far to near from `eye` (painter's algorithm, for passes without depth).
 fn sort_back_to_front(indices: &mut [u32], positions: &[[f32; 3]], eye: Vec3) {

@@ -85,11 +85,12 @@ pub struct CameraSpec {
 }
 
 impl CameraSpec {
-    /// The camera for a scene with bounds `bounds_min..bounds_max`.
-    pub fn resolve(&self, bounds_min: [f32; 3], bounds_max: [f32; 3]) -> Camera {
+    /// The camera for a scene with bounds `bounds_min..bounds_max` in a frame of width /
+    /// height `aspect`.
+    pub fn resolve(&self, bounds_min: [f32; 3], bounds_max: [f32; 3], aspect: f32) -> Camera {
         let yaw = self.yaw.map_or(FRAMING_YAW, f32::to_radians);
         let pitch = self.pitch.map_or(FRAMING_PITCH, f32::to_radians);
-        let framed = Camera::framing_from(bounds_min, bounds_max, yaw, pitch);
+        let framed = Camera::framing_aspect(bounds_min, bounds_max, yaw, pitch, aspect);
         let target = self.target.unwrap_or(framed.target);
         let mut cam = if let Some(eye) = self.eye {
             let d = glam::Vec3::from(eye)
@@ -321,15 +322,15 @@ pub struct RenderOptions {
     /// Run directory written by `wetcloth run` (frames/frame_NNNN.obj, run.json).
     #[cfg_attr(feature = "clap", arg(value_name = "RUN_DIR"))]
     pub run_dir: PathBuf,
-    /// Output directory for the PNG frames and the MP4 [default: RUN_DIR/render].
+    /// Output directory for the PNG frames and the MP4 (default: RUN_DIR/render).
     #[cfg_attr(feature = "clap", arg(long = "out", value_name = "DIR"))]
     pub out_dir: Option<PathBuf>,
     /// Image size in pixels.
     #[cfg_attr(feature = "clap", arg(long, value_name = "WxH", default_value_t = ImageSize::default()))]
     pub size: ImageSize,
-    /// Camera: YAW,PITCH[,DISTANCE] in degrees and metres, or key=value pairs
-    /// (yaw, pitch, distance, fov, target=x,y,z, eye=x,y,z) separated by ';' [default: a 3/4
-    /// view framing the whole run].
+    /// Camera: YAW,PITCH or YAW,PITCH,DISTANCE in degrees and metres, or key=value pairs
+    /// (yaw, pitch, distance, fov, target=x,y,z, eye=x,y,z) separated by ';' (default: a 3/4
+    /// view framing the whole run).
     #[cfg_attr(
         feature = "clap",
         arg(long, value_name = "SPEC", allow_hyphen_values = true)
@@ -338,7 +339,7 @@ pub struct RenderOptions {
     /// Draw the particles as dots.
     #[cfg_attr(feature = "clap", arg(long))]
     pub particles: bool,
-    /// Frames to render: N, A..B, A..=B, A.., ..B, with an optional :STEP [default: all].
+    /// Frames to render: N, A..B, A..=B, A.., ..B, each with an optional :STEP (default: all).
     #[cfg_attr(feature = "clap", arg(long, value_name = "SEL"))]
     pub frames: Option<FrameSelection>,
     /// How wet the cloth looks, 0 (dry) to 1 (wet: darker, glossier).
@@ -722,7 +723,12 @@ pub fn render_run_with_progress(
         corners.extend([lo, hi]);
     }
     let (lo, hi) = bounds_of(&corners).unwrap_or(([-0.15, 0.0, -0.15], [0.15, 0.02, 0.15]));
-    let camera = opts.camera.clone().unwrap_or_default().resolve(lo, hi);
+    let aspect = opts.size.width as f32 / opts.size.height as f32;
+    let camera = opts
+        .camera
+        .clone()
+        .unwrap_or_default()
+        .resolve(lo, hi, aspect);
 
     let out_dir = opts.output_dir();
     std::fs::create_dir_all(&out_dir).map_err(|e| RenderError::io(&out_dir, e))?;
@@ -940,14 +946,14 @@ mod tests {
             (c.yaw, c.pitch, c.distance),
             (Some(30.0), Some(20.0), Some(0.8))
         );
-        let cam = c.resolve([-0.1, 0.0, -0.1], [0.1, 0.0, 0.1]);
+        let cam = c.resolve([-0.1, 0.0, -0.1], [0.1, 0.0, 0.1], 1.5);
         let d = glam::Vec3::from(cam.eye) - glam::Vec3::from(cam.target);
         assert!((d.length() - 0.8).abs() < 1e-5);
         assert!((d.y / d.length() - 20f32.to_radians().sin()).abs() < 1e-5);
 
         let c: CameraSpec = "eye=0.4,0.3,0.5;target=0,0.01,0 fov=25".parse().unwrap();
         assert_eq!(c.eye, Some([0.4, 0.3, 0.5]));
-        let cam = c.resolve([0.0; 3], [0.0; 3]);
+        let cam = c.resolve([0.0; 3], [0.0; 3], 1.5);
         assert_eq!((cam.eye, cam.target), ([0.4, 0.3, 0.5], [0.0, 0.01, 0.0]));
         assert!((cam.fov_y - 25f32.to_radians()).abs() < 1e-6);
         assert_eq!(c.to_string().parse::<CameraSpec>().unwrap(), c);
@@ -955,5 +961,53 @@ mod tests {
         for bad in ["1", "1,2,3,4", "yaw=a", "zoom=2", "eye=1,2", "30,20,-1"] {
             assert!(bad.parse::<CameraSpec>().is_err(), "{bad}");
         }
+    }
+
+    #[cfg(feature = "clap")]
+    #[test]
+    fn clap_fills_render_options() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            opts: RenderOptions,
+        }
+        let cli = Cli::try_parse_from(["render", "runs/a"]).unwrap();
+        assert_eq!(cli.opts, RenderOptions::new("runs/a"));
+        let cli = Cli::try_parse_from([
+            "render",
+            "runs/a",
+            "--out",
+            "pics",
+            "--size",
+            "640x360",
+            "--camera",
+            "-60,40",
+            "--frames",
+            ":2",
+            "--particles",
+            "--wetness",
+            "0.3",
+            "--no-video",
+            "--no-grabs",
+        ])
+        .unwrap();
+        let o = cli.opts;
+        assert_eq!(o.out_dir, Some(PathBuf::from("pics")));
+        assert_eq!(
+            o.size,
+            ImageSize {
+                width: 640,
+                height: 360
+            }
+        );
+        assert_eq!(o.camera.unwrap().yaw, Some(-60.0));
+        assert_eq!(o.frames.unwrap().step, 2);
+        assert!(o.particles && !o.video && !o.show_grabs);
+        assert_eq!(o.wetness, 0.3);
+        let err = Cli::try_parse_from(["render", "runs/a", "--size", "big"])
+            .err()
+            .unwrap();
+        assert!(err.to_string().contains("WIDTHxHEIGHT"), "{err}");
     }
 }

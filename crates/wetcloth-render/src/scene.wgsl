@@ -35,7 +35,7 @@ struct Material {
 const PI: f32 = 3.14159265;
 const SKY: vec3<f32> = vec3<f32>(0.78, 0.84, 0.95);    // ambient from above (cool sky)
 const BOUNCE: vec3<f32> = vec3<f32>(0.42, 0.38, 0.33); // ambient from below (warm table bounce)
-const KEY: vec3<f32> = vec3<f32>(1.55, 1.46, 1.34);    // key light radiance (warm white)
+const KEY: vec3<f32> = vec3<f32>(1.30, 1.23, 1.13);    // key light radiance (warm white)
 const FILL: vec3<f32> = vec3<f32>(0.20, 0.24, 0.32);   // fill light radiance (cool, weak)
 
 struct Surface {
@@ -58,7 +58,7 @@ fn shade(s: Surface, p: vec3<f32>, shadow: f32) -> vec3<f32> {
     let hemi = mix(BOUNCE, SKY, n.y * 0.5 + 0.5);
     let fill_dir = normalize(vec3<f32>(-l.x, 0.35, -l.z));
     let fill = max(dot(n, fill_dir), 0.0);
-    var c = s.albedo * (0.40 * hemi + KEY * diffuse * shadow + FILL * fill);
+    var c = s.albedo * (0.62 * hemi + KEY * diffuse * shadow + FILL * fill);
 
     // Energy-normalised Blinn-Phong with Schlick's Fresnel (F0 = 4%, cloth and water alike).
     let h = normalize(l + v);
@@ -89,14 +89,15 @@ fn key_visibility(p: vec3<f32>, n: vec3<f32>) -> f32 {
     if (any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || q.z > 1.0) {
         return 1.0;
     }
-    // A 5x5 tent of comparisons, spread over ~3 texels: a soft penumbra, no acne.
+    // A 3x3 tent of comparisons 2.5 texels apart, each bilinearly filtered by the comparison
+    // sampler (2x2 texels): a soft penumbra for 9 taps.
     let texel = 1.0 / g.shadow.z;
     var sum = 0.0;
     var weight = 0.0;
-    for (var j = -2; j <= 2; j++) {
-        for (var i = -2; i <= 2; i++) {
-            let w = (3.0 - abs(f32(i))) * (3.0 - abs(f32(j)));
-            let o = vec2<f32>(f32(i), f32(j)) * texel * 1.5;
+    for (var j = -1; j <= 1; j++) {
+        for (var i = -1; i <= 1; i++) {
+            let w = (2.0 - abs(f32(i))) * (2.0 - abs(f32(j)));
+            let o = vec2<f32>(f32(i), f32(j)) * texel * 2.5;
             sum += w * textureSampleCompareLevel(shadow_map, shadow_sampler, uv + o, q.z - 0.0015);
             weight += w;
         }
@@ -105,8 +106,10 @@ fn key_visibility(p: vec3<f32>, n: vec3<f32>) -> f32 {
 }
 
 // The backdrop: a vertical gradient, cool grey at the top to a light warm grey at the bottom.
-fn backdrop(frag_y: f32) -> vec3<f32> {
-    let t = clamp(frag_y / max(g.params.w, 1.0), 0.0, 1.0);
+// `ndc_y` is the height in the viewport, 1 at the top to -1 at the bottom (not the framebuffer
+// row, which is offset when the viewer paints into part of its window).
+fn backdrop(ndc_y: f32) -> vec3<f32> {
+    let t = clamp(0.5 - 0.5 * ndc_y, 0.0, 1.0);
     return mix(vec3<f32>(0.30, 0.34, 0.40), vec3<f32>(0.62, 0.61, 0.59), smoothstep(0.0, 1.0, t));
 }
 
@@ -128,6 +131,7 @@ fn finish(c: vec3<f32>) -> vec4<f32> {
 
 struct BgOut {
     @builtin(position) clip: vec4<f32>,
+    @location(0) ndc_y: f32,
 }
 
 @vertex
@@ -135,12 +139,13 @@ fn vs_background(@builtin(vertex_index) i: u32) -> BgOut {
     let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
     var o: BgOut;
     o.clip = vec4<f32>(uv * 2.0 - 1.0, 1.0, 1.0);
+    o.ndc_y = o.clip.y;
     return o;
 }
 
 @fragment
 fn fs_background(in: BgOut) -> @location(0) vec4<f32> {
-    return finish(backdrop(in.clip.y));
+    return finish(backdrop(in.ndc_y));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -155,6 +160,7 @@ struct MeshOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
+    @location(2) clip_yw: vec2<f32>, // clip-space y and w, for the backdrop behind the table
 }
 
 @vertex
@@ -163,6 +169,7 @@ fn vs_mesh(in: MeshIn) -> MeshOut {
     o.clip = g.view_proj * vec4<f32>(in.pos, 1.0);
     o.world = in.pos;
     o.normal = in.normal;
+    o.clip_yw = o.clip.yw;
     return o;
 }
 
@@ -181,7 +188,7 @@ fn fs_mesh(in: MeshOut, @builtin(front_facing) front: bool) -> @location(0) vec4
 
     let wet = clamp(g.params.x, 0.0, 1.0) * mat.spec.y;
     var albedo = select(mat.back.rgb, mat.front.rgb, front);
-    albedo = pow(albedo, vec3<f32>(1.0 + 0.35 * wet)) * (1.0 - 0.38 * wet);
+    albedo = pow(albedo, vec3<f32>(1.0 + 0.3 * wet)) * (1.0 - 0.3 * wet);
     var s: Surface;
     s.albedo = albedo;
     s.n = n;
@@ -224,7 +231,7 @@ fn fs_ground(in: MeshOut) -> @location(0) vec4<f32> {
     let lit = shade(s, in.world, key_visibility(in.world, n));
     let r = length(in.world - g.focus.xyz);
     let fade = smoothstep(0.45 * g.ground_normal.w, g.ground_normal.w, r);
-    return finish(mix(lit, backdrop(in.clip.y), fade));
+    return finish(mix(lit, backdrop(in.clip_yw.x / in.clip_yw.y), fade));
 }
 
 // ---------------------------------------------------------------------------------------------

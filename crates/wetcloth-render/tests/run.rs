@@ -105,6 +105,16 @@ fn a_run_renders_to_pngs_showing_the_cloth_and_a_video_when_ffmpeg_is_there() {
             c[0] as i32 > c[1] as i32 + 12,
             "frame {k}: cloth drawn as {c:?}"
         );
+        // run.json's sphere collider is drawn, blue-grey, where it is.
+        let q = summary
+            .camera
+            .project([0.3, 0.05, 0.0], [160, 120])
+            .unwrap();
+        let c = img.get_pixel(q[0] as u32, q[1] as u32).0;
+        assert!(
+            c[2] as i32 > c[0] as i32 + 15,
+            "frame {k}: sphere drawn as {c:?}"
+        );
     }
     match (&summary.video, wetcloth_render::ffmpeg_available()) {
         (VideoOutcome::Written(p), true) => {

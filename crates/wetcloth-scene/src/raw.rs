@@ -259,22 +259,14 @@ fn convert(
         set(&mut d.frame_rate, s.frame_rate);
         set(&mut d.gravity, s.gravity.map(vec3));
         if let Some(i) = s.integrator {
-            d.integrator = Integrator::from_name(i.get_ref()).ok_or_else(|| {
-                let allowed: Vec<String> = Integrator::ALL
-                    .iter()
-                    .map(|i| format!("\"{}\"", i.name()))
-                    .collect();
-                SceneError::Invalid {
-                    at: cx.at(i.span()),
-                    key: "simulation.integrator".into(),
-                    value: format!("{:?}", i.get_ref()),
-                    message: format!(
-                        "unknown integrator{}: allowed {}",
-                        did_you_mean(i.get_ref(), &Integrator::ALL.map(|i| i.name())),
-                        allowed.join(", ")
-                    ),
-                }
-            })?;
+            d.integrator = named(
+                cx,
+                &i,
+                "simulation.integrator",
+                "integrator",
+                Integrator::ALL,
+                Integrator::name,
+            )?;
         }
     }
 
@@ -302,22 +294,14 @@ fn convert(
         set(&mut air.trapped_air, a.trapped_air);
         set(&mut air.leak_conductance, a.leak_conductance);
         if let Some(p) = a.pressure_solve {
-            air.pressure_solve = PressureSolve::from_name(p.get_ref()).ok_or_else(|| {
-                let allowed: Vec<String> = PressureSolve::ALL
-                    .iter()
-                    .map(|p| format!("\"{}\"", p.name()))
-                    .collect();
-                SceneError::Invalid {
-                    at: cx.at(p.span()),
-                    key: "air.pressure_solve".into(),
-                    value: format!("{:?}", p.get_ref()),
-                    message: format!(
-                        "unknown pressure solve{}: allowed {}",
-                        did_you_mean(p.get_ref(), &PressureSolve::ALL.map(|p| p.name())),
-                        allowed.join(", ")
-                    ),
-                }
-            })?;
+            air.pressure_solve = named(
+                cx,
+                &p,
+                "air.pressure_solve",
+                "pressure solve",
+                PressureSolve::ALL,
+                PressureSolve::name,
+            )?;
         }
     }
 
@@ -357,6 +341,34 @@ fn convert(
             grabs,
         },
     ))
+}
+
+/// The choice among `all` that `value` names (by `name`), or an error at its span listing the
+/// allowed names and suggesting the closest; `what` names the kind of choice in the message.
+fn named<T: Copy, const N: usize>(
+    cx: &Ctx<'_>,
+    value: &Spanned<String>,
+    key: &str,
+    what: &str,
+    all: [T; N],
+    name: fn(T) -> &'static str,
+) -> Result<T, SceneError> {
+    let names = all.map(name);
+    all.into_iter()
+        .find(|t| name(*t) == value.get_ref())
+        .ok_or_else(|| {
+            let allowed: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+            SceneError::Invalid {
+                at: cx.at(value.span()),
+                key: key.into(),
+                value: format!("{:?}", value.get_ref()),
+                message: format!(
+                    "unknown {what}{}: allowed {}",
+                    did_you_mean(value.get_ref(), &names),
+                    allowed.join(", ")
+                ),
+            }
+        })
 }
 
 /// ` (did you mean "x"?)` for the closest of `names` to `value`, or nothing.

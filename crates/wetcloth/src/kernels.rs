@@ -143,6 +143,18 @@ impl StepScratch {
         }
     }
 
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        let row = |r: &RowSprings| {
+            [&r.right, &r.down, &r.diag, &r.anti]
+                .iter()
+                .flat_map(|a| a.iter())
+                .map(|v| v.capacity() * std::mem::size_of::<Real>())
+                .sum::<usize>()
+        };
+        row(&self.current) + row(&self.previous)
+    }
+
     /// True if sized for rows of `nx` particles.
     pub fn fits(&self, nx: usize) -> bool {
         self.current.right[0].len() == nx

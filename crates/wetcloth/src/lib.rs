@@ -43,10 +43,11 @@
 //! cfg.cloth.resolution = [10, 10];
 //! cfg.grabs.clear();
 //! let mut sim = Simulation::new(cfg).unwrap();
-//! for _ in 0..100 {
-//!     sim.step().unwrap();
-//! }
-//! assert!(sim.metrics().contact_fraction > 0.9);
+//! sim.advance(1200).unwrap(); // 0.1 s
+//! // The 400 cm^3 of trapped air stays under the cloth, at about atmospheric pressure.
+//! let m = sim.metrics();
+//! assert!((m.air_volume - 400e-6).abs() < 4e-6);
+//! assert!((m.air_pressure - 101_325.0).abs() < 100.0);
 //! ```
 
 pub mod air;

@@ -56,6 +56,11 @@ impl Soa {
         self.z[i] = v.z;
     }
 
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        (self.x.capacity() + self.y.capacity() + self.z.capacity()) * std::mem::size_of::<Real>()
+    }
+
     /// Copies the vectors out as an array of `Vec3`.
     pub fn to_vec3(&self) -> Vec<Vec3> {
         (0..self.len()).map(|i| self.get(i)).collect()

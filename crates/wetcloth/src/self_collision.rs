@@ -56,6 +56,19 @@ impl SelfCollision {
         }
     }
 
+    /// Heap bytes held (lists, hash grid, scratch).
+    pub fn heap_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.reference.heap_bytes()
+            + self.corrections.heap_bytes()
+            + (self.start.capacity()
+                + self.list.capacity()
+                + self.bucket_start.capacity()
+                + self.bucket_items.capacity())
+                * size_of::<u32>()
+            + self.cells.capacity() * size_of::<[i64; 3]>()
+    }
+
     /// Number of neighbour pairs (both directions) in the current lists.
     pub fn candidate_count(&self) -> usize {
         self.list.len()
