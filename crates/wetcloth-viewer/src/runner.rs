@@ -602,6 +602,8 @@ mod tests {
         let mut cfg = SimConfig::thesis_demo();
         cfg.grabs.clear();
         cfg.cloth.resolution = [20, 20];
+        cfg.air.trapped_air = 0.0;
+        cfg.cloth.position.y = cfg.cloth.particle_radius();
         let k = 10 * 20 + 10;
         let r = Runner::start(cfg, || {}).unwrap();
         wait_for(&r, |s| s.metrics.time > 0.05);

@@ -1,9 +1,9 @@
 //! End to end: the viewer window under Xvfb, driven by a script.
 //!
 //! The script waits for the cloth to settle on the table, turns the air-pressure force off with
-//! its shortcut (with no air under it, the thesis' cloth is held down by the full atmosphere
-//! and cannot be lifted far), saves a screenshot, picks the cloth near its centre, drags it up,
-//! saves a second screenshot and quits. The test then checks that
+//! its shortcut (so the keyboard path is exercised, and the lift does not hang on the air
+//! model's parameters), saves a screenshot, picks the cloth near its centre, drags it up, saves a
+//! second screenshot and quits. The test then checks that
 //! the viewer exited with status 0 and that, in the second screenshot, the pixels on the path of
 //! the drag above the cloth's resting silhouette have turned from table to cloth, while the
 //! pixels away from the drag stayed as they were.
