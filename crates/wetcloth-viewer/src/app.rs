@@ -473,8 +473,8 @@ impl ViewerApp {
                 })
                 .sum()
         });
-        let inside = pointer.is_some_and(|p| self.view_rect.contains(p)) && response.hovered()
-            || response.contains_pointer();
+        // Over the view and not over a window on top of it (the help).
+        let inside = response.contains_pointer();
         let vp = self.viewport();
 
         // Hover highlight in pick mode.
