@@ -3,10 +3,11 @@
 //! The script waits for the cloth to settle on the table, turns the air-pressure force off with
 //! its shortcut (so the keyboard path is exercised, and the lift does not hang on the air
 //! model's parameters), saves a screenshot, picks the cloth near its centre, drags it up, saves a
-//! second screenshot and quits. The test then checks that
-//! the viewer exited with status 0 and that, in the second screenshot, the pixels on the path of
-//! the drag above the cloth's resting silhouette have turned from table to cloth, while the
-//! pixels away from the drag stayed as they were.
+//! second screenshot, pins the particle with a right click, lets go of the mouse, saves a third
+//! and quits. The test then checks that the viewer exited with status 0 and that, in the second
+//! and third screenshots, the pixels on the path of the drag above the cloth's resting
+//! silhouette have turned from table to cloth, while the pixels away from the drag stayed as
+//! they were.
 //!
 //! Needs `Xvfb` and a Vulkan driver (Mesa's lavapipe works without a GPU). On Debian:
 //! `apt-get install xvfb mesa-vulkan-drivers libvulkan1`. Without them the test fails and says
@@ -181,6 +182,7 @@ fn viewer_lifts_the_cloth() {
     std::fs::create_dir_all(&dir).unwrap();
     let before = dir.join("before.png");
     let after = dir.join("after.png");
+    let pinned = dir.join("pinned.png");
     let script = dir.join("lift.txt");
     // Pick below the view centre, where the cloth's middle lies with the default camera, and
     // pull straight up to near the top of the view.
@@ -195,10 +197,14 @@ fn viewer_lifts_the_cloth() {
              drag_to 0.5 {DRAG_V} 20\n\
              wait_sim +0.3\n\
              screenshot {}\n\
+             pin\n\
              release\n\
+             wait_sim +0.2\n\
+             screenshot {}\n\
              quit\n",
             before.display(),
-            after.display()
+            after.display(),
+            pinned.display()
         ),
     )
     .unwrap();
@@ -273,17 +279,22 @@ fn viewer_lifts_the_cloth() {
         bottom > top + 10,
         "the pick point is too close to the top: edge {edge}, top {top}"
     );
-    let mut changed = 0;
-    let mut total = 0;
-    for y in top..bottom {
-        for x in px - 2..=px + 2 {
-            total += 1;
-            if distance(a.get_pixel(x, y), b.get_pixel(x, y)) > 40 {
-                changed += 1;
+    let changed_fraction = |b: &image::RgbaImage| {
+        let mut changed = 0;
+        let mut total = 0;
+        for y in top..bottom {
+            for x in px - 2..=px + 2 {
+                total += 1;
+                if distance(a.get_pixel(x, y), b.get_pixel(x, y)) > 40 {
+                    changed += 1;
+                }
             }
         }
-    }
-    let lifted = changed as f64 / total as f64;
+        changed as f64 / total as f64
+    };
+    let lifted = changed_fraction(&b);
+    // Pinned with a right click and let go: the cloth stays up.
+    let still_up = changed_fraction(&image::open(&pinned).unwrap().to_rgba8());
     // A patch of table far from the drag (the bottom-left corner of the view, nearest the
     // camera) is unchanged. (Not the far end of the table: it fades into the background at a
     // distance that follows the scene's extent, which the lifted cloth changes.)
@@ -299,9 +310,10 @@ fn viewer_lifts_the_cloth() {
         }
     }
     eprintln!(
-        "pick at ({px}, {py}); resting edge at y = {edge}; rows {top}..{bottom}: {:.0} % changed; \
-         corner {:.0} % unchanged",
+        "pick at ({px}, {py}); resting edge at y = {edge}; rows {top}..{bottom}: {:.0} % changed \
+         while dragged, {:.0} % once pinned; corner {:.0} % unchanged",
         lifted * 100.0,
+        still_up * 100.0,
         100.0 * same as f64 / corner as f64
     );
     assert!(
@@ -309,6 +321,13 @@ fn viewer_lifts_the_cloth() {
         "the cloth does not show above its resting silhouette where it was dragged: only {:.0} % \
          of the pixels changed (screenshots in {})",
         lifted * 100.0,
+        dir.display()
+    );
+    assert!(
+        still_up > 0.6,
+        "after the right click (pin) and letting go, the cloth fell back: {:.0} % changed \
+         (screenshots in {})",
+        still_up * 100.0,
         dir.display()
     );
     assert!(
