@@ -98,9 +98,9 @@ impl SelfCollision {
         };
         let n = p.len();
         if crate::exec::use_pool(n) {
-            (0..n.div_ceil(4096))
+            (0..n.div_ceil(1024))
                 .into_par_iter()
-                .map(|c| moved(c * 4096..((c + 1) * 4096).min(n)))
+                .map(|c| moved(c * 1024..((c + 1) * 1024).min(n)))
                 .any(|d| d > limit)
         } else {
             moved(0..n) > limit
