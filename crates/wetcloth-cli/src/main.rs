@@ -9,6 +9,7 @@ mod bench;
 mod error;
 mod render;
 mod run;
+mod view;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -38,6 +39,8 @@ enum Command {
     Render(wetcloth_render::RenderOptions),
     /// Plot a run's metrics.csv over time into RUN_DIR/metrics.png.
     Plot(render::PlotArgs),
+    /// Open the interactive demo window: pull the wet cloth off the table with the mouse.
+    View(view::ViewArgs),
 }
 
 fn main() -> ExitCode {
@@ -56,6 +59,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::bench(args, cli.quiet),
         Command::Render(opts) => render::render(opts, cli.quiet),
         Command::Plot(args) => render::plot(args, cli.quiet),
+        Command::View(args) => view::view(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
