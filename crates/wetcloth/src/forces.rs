@@ -36,6 +36,17 @@ pub(crate) struct RowMut<'a> {
     pub z: &'a mut [Real],
 }
 
+impl RowMut<'_> {
+    /// The same slices, read-only.
+    pub fn as_ref(&self) -> RowRef<'_> {
+        RowRef {
+            x: self.x,
+            y: self.y,
+            z: self.z,
+        }
+    }
+}
+
 /// Read-only x, y, z slices of one row.
 #[derive(Clone, Copy)]
 pub(crate) struct RowRef<'a> {

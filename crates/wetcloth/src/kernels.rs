@@ -42,6 +42,9 @@ pub(crate) struct StepConsts<'a> {
     pub rest_diag: Real,
     /// `dt^2 / m` (halved on the first step: the Taylor start).
     pub h: Real,
+    /// Positions the self-collision lists were built at, if any: the pass then also returns
+    /// how far the particles have moved from them (see [`step_rows`]).
+    pub reference: Option<&'a Soa>,
 }
 
 /// Row `r` of `p` as read-only slices.
@@ -170,6 +173,10 @@ impl StepScratch {
 /// row, and a block that does not start at row 0 first evaluates the row above it again. Every
 /// particle adds its terms in the same fixed order whatever the blocks are, so the result does
 /// not depend on how the rows are split between threads.
+///
+/// Returns the largest squared distance (m^2) of a new position from `c.reference` (0 without
+/// one): the self-collision lists' skin test, done here while the new positions are at hand
+/// instead of in a pass of its own.
 pub(crate) fn step_rows(
     c: &StepConsts<'_>,
     j0: usize,
@@ -178,7 +185,8 @@ pub(crate) fn step_rows(
     force: &mut RowMut<'_>,
     contact: &mut [bool],
     scratch: &mut StepScratch,
-) {
+) -> Real {
+    let mut moved: Real = 0.0;
     let nx = c.grid.nx;
     let rows = prev.x.len() / nx;
     if j0 > 0 {
@@ -198,8 +206,34 @@ pub(crate) fn step_rows(
             z: &mut force.z[r.clone()],
         };
         step_row(c, j, x, &mut p, &mut f, &mut contact[r], scratch);
+        if let Some(reference) = c.reference {
+            moved = moved.max(max_distance2(p.as_ref(), row(reference, nx, j)));
+        }
         std::mem::swap(&mut scratch.current, &mut scratch.previous);
     }
+    moved
+}
+
+/// Largest squared distance between `a[i]` and `b[i]`, m^2, with lane-wise maxima (it
+/// vectorises).
+fn max_distance2(a: RowRef<'_>, b: RowRef<'_>) -> Real {
+    let n = a.x.len();
+    let (bx, by, bz) = (&b.x[..n], &b.y[..n], &b.z[..n]);
+    let mut lanes = [0.0 as Real; LANES];
+    let full = n - n % LANES;
+    for base in (0..full).step_by(LANES) {
+        for (l, m) in lanes.iter_mut().enumerate() {
+            let i = base + l;
+            let (dx, dy, dz) = (a.x[i] - bx[i], a.y[i] - by[i], a.z[i] - bz[i]);
+            let d = dx * dx + dy * dy + dz * dz;
+            *m = if d > *m { d } else { *m };
+        }
+    }
+    for i in full..n {
+        let (dx, dy, dz) = (a.x[i] - bx[i], a.y[i] - by[i], a.z[i] - bz[i]);
+        lanes[0] = lanes[0].max(dx * dx + dy * dy + dz * dz);
+    }
+    lanes.into_iter().fold(0.0, Real::max)
 }
 
 /// One row of [`step_rows`], with the row's springs in `scratch.current` and the previous

@@ -74,6 +74,11 @@ impl SelfCollision {
         self.list.len()
     }
 
+    /// The positions the lists were built at (none before the first build).
+    pub fn reference(&self) -> Option<&Soa> {
+        (!self.reference.is_empty()).then_some(&self.reference)
+    }
+
     fn needs_rebuild(&self, p: &Soa) -> bool {
         if self.reference.len() != p.len() {
             return true;
@@ -187,7 +192,25 @@ impl SelfCollision {
     /// Pushes overlapping particles apart. `fixed[i]` marks grabbed particles, which do not
     /// move. Returns the number of overlapping (ordered) pairs found.
     pub fn solve(&mut self, grid: &Grid, p: &mut Soa, fixed: &[bool]) -> usize {
-        if self.needs_rebuild(p) {
+        self.solve_moved(grid, p, fixed, None)
+    }
+
+    /// [`SelfCollision::solve`], given the largest squared distance (m^2) any particle of `p`
+    /// has moved from [`SelfCollision::reference`] if the caller measured it already.
+    pub fn solve_moved(
+        &mut self,
+        grid: &Grid,
+        p: &mut Soa,
+        fixed: &[bool],
+        moved2: Option<Real>,
+    ) -> usize {
+        let rebuild = match (moved2, self.reference()) {
+            (Some(m), Some(_)) if self.reference.len() == p.len() => {
+                m > (0.5 * self.skin) * (0.5 * self.skin)
+            }
+            _ => self.needs_rebuild(p),
+        };
+        if rebuild {
             self.rebuild(grid, p);
         }
         if self.list.is_empty() {

@@ -443,13 +443,17 @@ impl Simulation {
             pressure_area,
             radius: self.radius,
             h: dt * dt / self.mass * if self.steps == 0 { 0.5 } else { 1.0 },
+            reference: self
+                .self_collision
+                .as_ref()
+                .and_then(SelfCollision::reference),
         };
         let nx = self.grid.nx;
         let x = &self.x;
         let parallel = self.parallel();
         let rows = self.rows_per_task();
         let (p, f) = (&mut self.prev, &mut self.force);
-        if parallel {
+        let moved2 = if parallel {
             // Blocks of rows, one task each; the split never changes the result.
             let block = nx * rows;
             (
@@ -463,7 +467,7 @@ impl Simulation {
             )
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(b, (px, py, pz, fx, fy, fz, contact))| {
+                .map(|(b, (px, py, pz, fx, fy, fz, contact))| {
                     THREAD_SCRATCH.with_borrow_mut(|scratch| {
                         if !scratch.fits(nx) {
                             *scratch = StepScratch::new(nx);
@@ -479,9 +483,10 @@ impl Simulation {
                             z: fz,
                         };
                         let j0 = b * rows;
-                        kernels::step_rows(&consts, j0, x, &mut prev, &mut force, contact, scratch);
-                    });
-                });
+                        kernels::step_rows(&consts, j0, x, &mut prev, &mut force, contact, scratch)
+                    })
+                })
+                .reduce(|| 0.0, Real::max)
         } else {
             let mut prev = RowMut {
                 x: &mut p.x,
@@ -502,8 +507,8 @@ impl Simulation {
                 &mut force,
                 &mut self.contact,
                 scratch,
-            );
-        }
+            )
+        };
         std::mem::swap(&mut self.x, &mut self.prev);
 
         // Air leaking in (or out) where the border is lifted off the surface, at the pressure of
@@ -536,7 +541,18 @@ impl Simulation {
             }
         }
 
-        // 5. Position corrections.
+        // 5. Position corrections. How far the particles moved from where the self-collision
+        // lists were built: measured in the main pass, plus the grabbed particles' moves.
+        let mut moved2 = moved2;
+        if let Some(r) = self
+            .self_collision
+            .as_ref()
+            .and_then(SelfCollision::reference)
+        {
+            for g in &self.grabs {
+                moved2 = moved2.max((self.x.get(g.particle) - r.get(g.particle)).length_squared());
+            }
+        }
         let mut corrected = false;
         let cloth = &self.config.cloth;
         if cloth.strain_limit > 0.0 {
@@ -550,7 +566,9 @@ impl Simulation {
             ) > 0;
         }
         if let Some(sc) = &mut self.self_collision {
-            corrected |= sc.solve(&self.grid, &mut self.x, &self.fixed) > 0;
+            // Strain limiting moves particles after the main pass: then measure again.
+            let moved = (!corrected).then_some(moved2);
+            corrected |= sc.solve_moved(&self.grid, &mut self.x, &self.fixed, moved) > 0;
         }
         if corrected && !self.config.colliders.is_empty() {
             let (colliders, r, fixed) = (&self.config.colliders, self.radius, &self.fixed);
