@@ -45,6 +45,8 @@ pub(crate) struct StepConsts<'a> {
     /// Positions the self-collision lists were built at, if any: the pass then also returns
     /// how far the particles have moved from them (see [`step_rows`]).
     pub reference: Option<&'a Soa>,
+    /// The sticking plane (point, up) for the volume of the checks (see [`step_rows`]).
+    pub sticking: Option<(Vec3, Vec3)>,
 }
 
 /// Row `r` of `p` as read-only slices.
@@ -174,9 +176,13 @@ impl StepScratch {
 /// particle adds its terms in the same fixed order whatever the blocks are, so the result does
 /// not depend on how the rows are split between threads.
 ///
-/// Returns the largest squared distance (m^2) of a new position from `c.reference` (0 without
-/// one): the self-collision lists' skin test, done here while the new positions are at hand
-/// instead of in a pass of its own.
+/// While the new positions are at hand it also measures them, instead of in passes of their
+/// own: `checks[k]` receives [`check_cells`] of rows `j0 + k` and `j0 + k + 1` for the cells
+/// inside the block (the last entry, whose next row belongs to the next block, is left for the
+/// caller, except on the grid's last row), and the return value is the largest squared
+/// distance (m^2) of a new position from `c.reference` (0 without one): the self-collision
+/// lists' skin test.
+#[allow(clippy::too_many_arguments)] // the row slices of one block, each its own borrow
 pub(crate) fn step_rows(
     c: &StepConsts<'_>,
     j0: usize,
@@ -184,6 +190,7 @@ pub(crate) fn step_rows(
     prev: &mut RowMut<'_>,
     force: &mut RowMut<'_>,
     contact: &mut [bool],
+    checks: &mut [RowCheck],
     scratch: &mut StepScratch,
 ) -> Real {
     let mut moved: Real = 0.0;
@@ -210,6 +217,20 @@ pub(crate) fn step_rows(
             moved = moved.max(max_distance2(p.as_ref(), row(reference, nx, j)));
         }
         std::mem::swap(&mut scratch.current, &mut scratch.previous);
+        // The cells between the previous row and this one, both new now.
+        let (g, r0) = (c.grid, c.radius);
+        let new_row = |k: usize| RowRef {
+            x: &prev.x[k * nx..(k + 1) * nx],
+            y: &prev.y[k * nx..(k + 1) * nx],
+            z: &prev.z[k * nx..(k + 1) * nx],
+        };
+        let k = j - j0;
+        if k > 0 {
+            checks[k - 1] = check_cells(g, new_row(k - 1), Some(new_row(k)), c.sticking, r0);
+        }
+        if j + 1 == g.nz {
+            checks[k] = check_cells(g, new_row(k), None, c.sticking, r0);
+        }
     }
     moved
 }
@@ -494,11 +515,22 @@ pub(crate) fn check_row(
     plane: Option<(Vec3, Vec3)>,
     offset: Real,
 ) -> RowCheck {
+    let next = (j + 1 < grid.nz).then(|| row(x, grid.nx, j + 1));
+    check_cells(grid, row(x, grid.nx, j), next, plane, offset)
+}
+
+/// [`check_row`] for the cells between row `a` and the next row `b` (`None` for the last row).
+pub(crate) fn check_cells(
+    grid: &Grid,
+    a: RowRef<'_>,
+    b: Option<RowRef<'_>>,
+    plane: Option<(Vec3, Vec3)>,
+    offset: Real,
+) -> RowCheck {
     let nx = grid.nx;
     let m = nx - 1;
-    let a = row(x, nx, j);
     let (irx, irz) = (1.0 / (grid.dx * grid.dx), 1.0 / (grid.dz * grid.dz));
-    if j + 1 == grid.nz {
+    let Some(b) = b else {
         // Last row: no cells; its springs along x and its finiteness.
         let mut worst: Real = 0.0;
         let mut probe: Real = 0.0;
@@ -516,8 +548,7 @@ pub(crate) fn check_row(
             stretch2: worst,
             finite_probe: probe + (a.x[m] + a.y[m] + a.z[m]) * 0.0,
         };
-    }
-    let b = row(x, nx, j + 1);
+    };
     let (origin, up) = plane.unwrap_or((Vec3::ZERO, Vec3::Y));
     let h0 = up.dot(origin) + offset;
 

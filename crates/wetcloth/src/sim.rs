@@ -447,6 +447,7 @@ impl Simulation {
                 .self_collision
                 .as_ref()
                 .and_then(SelfCollision::reference),
+            sticking: self.sticking,
         };
         let nx = self.grid.nx;
         let x = &self.x;
@@ -464,10 +465,11 @@ impl Simulation {
                 f.y.par_chunks_mut(block),
                 f.z.par_chunks_mut(block),
                 self.contact.par_chunks_mut(block),
+                self.row_checks.par_chunks_mut(rows),
             )
                 .into_par_iter()
                 .enumerate()
-                .map(|(b, (px, py, pz, fx, fy, fz, contact))| {
+                .map(|(b, (px, py, pz, fx, fy, fz, contact, checks))| {
                     THREAD_SCRATCH.with_borrow_mut(|scratch| {
                         if !scratch.fits(nx) {
                             *scratch = StepScratch::new(nx);
@@ -483,7 +485,9 @@ impl Simulation {
                             z: fz,
                         };
                         let j0 = b * rows;
-                        kernels::step_rows(&consts, j0, x, &mut prev, &mut force, contact, scratch)
+                        kernels::step_rows(
+                            &consts, j0, x, &mut prev, &mut force, contact, checks, scratch,
+                        )
                     })
                 })
                 .reduce(|| 0.0, Real::max)
@@ -506,10 +510,17 @@ impl Simulation {
                 &mut prev,
                 &mut force,
                 &mut self.contact,
+                &mut self.row_checks,
                 scratch,
             )
         };
         std::mem::swap(&mut self.x, &mut self.prev);
+        // The checks of the cell rows that straddle two blocks (see `kernels::step_rows`).
+        if parallel {
+            for j in (rows - 1..self.grid.nz - 1).step_by(rows) {
+                self.recheck_row(j);
+            }
+        }
 
         // Air leaking in (or out) where the border is lifted off the surface, at the pressure of
         // the step's start (explicit Euler on the amount of air).
@@ -538,6 +549,14 @@ impl Simulation {
                     self.fixed[k] = true;
                 }
                 None => g.force = Vec3::ZERO,
+            }
+        }
+        // The checks of the cells around the particles the grabs moved.
+        for i in 0..self.grabs.len() {
+            if self.targets[i].is_some() {
+                let j = self.grabs[i].particle / self.grid.nx;
+                self.recheck_row(j.saturating_sub(1));
+                self.recheck_row(j);
             }
         }
 
@@ -582,13 +601,28 @@ impl Simulation {
         }
 
         self.steps += 1;
-        // 6. Bubble volume and blow-up check.
-        self.update_air_and_check()
+        // 6. Bubble volume and blow-up check: measured in the main pass unless a correction
+        // moved particles since.
+        if corrected {
+            self.recheck_all();
+        }
+        self.finish_checks()
     }
 
     /// Recomputes the bubble volume of the current state and checks for non-finite positions
     /// and over-stretched structural springs, in one pass over the rows.
     fn update_air_and_check(&mut self) -> Result<(), StepError> {
+        self.recheck_all();
+        self.finish_checks()
+    }
+
+    /// Recomputes the check of the cells between row `j` and the next (or of the last row).
+    fn recheck_row(&mut self, j: usize) {
+        self.row_checks[j] = kernels::check_row(&self.grid, &self.x, j, self.sticking, self.radius);
+    }
+
+    /// Recomputes every row's check from the current positions.
+    fn recheck_all(&mut self) {
         let parallel = self.parallel();
         let (grid, x, sticking, offset) = (&self.grid, &self.x, self.sticking, self.radius);
         let check = |(j, out): (usize, &mut RowCheck)| {
@@ -604,6 +638,10 @@ impl Simulation {
         } else {
             self.row_checks.iter_mut().enumerate().for_each(check);
         }
+    }
+
+    /// Sums the rows' checks: the new bubble volume, and an error if the state blew up.
+    fn finish_checks(&mut self) -> Result<(), StepError> {
         let time = self.time();
         let mut worst: Real = 0.0;
         for r in &self.row_checks {
