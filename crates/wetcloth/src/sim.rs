@@ -667,10 +667,12 @@ impl Simulation {
         crate::exec::use_pool(self.grid.len())
     }
 
-    /// Rows per parallel task: two tasks per thread (so a briefly descheduled thread does not
-    /// hold the step up), at least [`MIN_ROWS_PER_TASK`].
+    /// Rows per parallel task: one block of rows per thread, at least [`MIN_ROWS_PER_TASK`].
+    /// Every block recomputes the springs of the row above it and leaves one row of cells to
+    /// check after the join, so fewer, larger blocks do less extra work; on a quiet machine
+    /// that measured 3 % faster than two blocks per thread at 50 x 50 and 100 x 100.
     fn rows_per_task(&self) -> usize {
-        let tasks = 2 * rayon::current_num_threads();
+        let tasks = rayon::current_num_threads();
         self.grid.nz.div_ceil(tasks).max(MIN_ROWS_PER_TASK)
     }
 
