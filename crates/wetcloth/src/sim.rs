@@ -402,7 +402,8 @@ impl Simulation {
     /// 4. move grabbed particles onto their targets and record the hand's force (3.2 step 3);
     /// 5. optional Provot strain limiting, then self-collision (3.1), then push anything those
     ///    corrections moved back out of the colliders;
-    /// 6. measure the new bubble volume (eq. 3.10) and check the state for a blow-up.
+    /// 6. measure the new bubble volume (eq. 3.10) and check the state for a blow-up (in the
+    ///    pass of phases 2-3 where nothing moved the particles afterwards).
     pub fn step(&mut self) -> Result<(), StepError> {
         let dt = self.config.simulation.time_step;
         let t_next = (self.steps + 1) as Real * dt;
