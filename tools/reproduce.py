@@ -128,10 +128,11 @@ def run_scene(name):
 
 
 def fmt(x, digits=3):
+    """A number for the tables: integers from 1000 up, `digits` significant digits below."""
     if x == 0:
         return "0"
-    if abs(x) >= 1000 or abs(x) < 0.01:
-        return f"{x:.{digits}g}"
+    if abs(x) >= 1000:
+        return f"{x:.0f}"
     return f"{x:.{digits}g}"
 
 
