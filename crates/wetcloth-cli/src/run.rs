@@ -172,7 +172,7 @@ fn prepare_dir(frames_dir: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Writes `run.json` through a temporary file, so it is always complete.
+/// Writes `run.json` (always complete, see `write_run_json_file`).
 fn write_run_json(
     path: &Path,
     name: &str,
@@ -180,12 +180,8 @@ fn write_run_json(
     frames: u64,
     complete: bool,
 ) -> Result<(), CliError> {
-    let part = path.with_extension("json.part");
     let info = RunInfo::new(name, config, frames, complete);
-    let file = File::create(&part).map_err(CliError::output(&part))?;
-    wetcloth_export::write_run_json(BufWriter::new(file), &info)
-        .map_err(CliError::output(&part))?;
-    fs::rename(&part, path).map_err(CliError::output(path))
+    wetcloth_export::write_run_json_file(path, &info).map_err(CliError::output(path))
 }
 
 /// A progress bar over the steps on stderr, or a hidden one when stderr is not a terminal or the

@@ -122,6 +122,14 @@ pub fn write_run_json(mut w: impl Write, info: &RunInfo) -> io::Result<()> {
     w.flush()
 }
 
+/// Writes `run.json` at `path` through `path.json.part` and a rename, so a reader never sees it
+/// half written (a run rewrites it after every frame).
+pub fn write_run_json_file(path: &std::path::Path, info: &RunInfo) -> io::Result<()> {
+    let part = path.with_extension("json.part");
+    write_run_json(io::BufWriter::new(std::fs::File::create(&part)?), info)?;
+    std::fs::rename(&part, path)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

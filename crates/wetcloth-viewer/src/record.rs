@@ -132,7 +132,7 @@ impl Drop for Recorder {
     }
 }
 
-/// Writes `run.json` through a temporary file, so it is always complete.
+/// Writes `run.json` (always complete, see `write_run_json_file`).
 fn write_run_json(
     path: &Path,
     name: &str,
@@ -140,13 +140,7 @@ fn write_run_json(
     frames: u64,
     complete: bool,
 ) -> io::Result<()> {
-    let part = path.with_extension("json.part");
-    let info = RunInfo::new(name, config, frames, complete);
-    let mut w = BufWriter::new(File::create(&part)?);
-    wetcloth_export::write_run_json(&mut w, &info)?;
-    w.flush()?;
-    drop(w);
-    fs::rename(&part, path)
+    wetcloth_export::write_run_json_file(path, &RunInfo::new(name, config, frames, complete))
 }
 
 #[cfg(test)]
