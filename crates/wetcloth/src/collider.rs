@@ -13,23 +13,24 @@ pub enum Shape {
     /// Infinite plane through `point` with unit `normal` (the solid is on the side opposite to
     /// the normal).
     Plane {
-        /// A point on the plane, m.
+        /// A point on the plane, m. Scene default (0, 0, 0); any finite point.
         point: Vec3,
-        /// Unit normal, pointing out of the solid.
+        /// Unit normal, pointing out of the solid. Scene default (0, 1, 0); any non-zero
+        /// vector, normalised.
         normal: Vec3,
     },
     /// Solid sphere.
     Sphere {
-        /// Centre, m.
+        /// Centre, m. Scene default (0, 0, 0); any finite point.
         center: Vec3,
-        /// Radius, m (> 0).
+        /// Radius, m. Required; range (0, 1e4].
         radius: Real,
     },
     /// Solid axis-aligned box.
     Box {
-        /// Centre, m.
+        /// Centre, m. Scene default (0, 0, 0); any finite point.
         center: Vec3,
-        /// Half extents along x, y, z, m (each > 0).
+        /// Half extents along x, y, z, m. Required; each > 0.
         half_extents: Vec3,
     },
 }

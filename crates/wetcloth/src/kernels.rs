@@ -616,6 +616,42 @@ mod tests {
     use super::*;
     use crate::params::ClothParams;
 
+    /// The vectorised pressure force is `pressure_area` times the normal `Grid::normal`
+    /// defines, border rows and columns included, on a crumpled cloth.
+    #[test]
+    fn row_pressure_matches_the_grid_normal() {
+        let grid = Grid::new(&ClothParams {
+            resolution: [7, 5],
+            ..Default::default()
+        });
+        let mut p = grid.rest_positions(Vec3::ZERO);
+        for k in 0..grid.len() {
+            let s = k as Real;
+            p.y[k] += 0.01 * (0.9 * s).sin();
+            p.x[k] += 0.002 * (1.7 * s).cos();
+        }
+        let nx = grid.nx;
+        for j in 0..grid.nz {
+            let (mut fx, mut fy, mut fz) = (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
+            let mut f = RowMut {
+                x: &mut fx,
+                y: &mut fy,
+                z: &mut fz,
+            };
+            let below = row(&p, nx, j.saturating_sub(1));
+            let above = row(&p, nx, (j + 1).min(grid.nz - 1));
+            add_pressure(&mut f, row(&p, nx, j), below, above, -3.5);
+            for i in 0..nx {
+                let expect = grid.normal(&p, grid.index(i, j)) * -3.5;
+                let got = Vec3::new(fx[i], fy[i], fz[i]);
+                assert!(
+                    (got - expect).length() < 1e-12,
+                    "({i}, {j}): {got} vs {expect}"
+                );
+            }
+        }
+    }
+
     /// The vectorised eq. 3.10 agrees with the reference `air::volume` on a crumpled cloth.
     #[test]
     fn row_volume_matches_the_reference() {
