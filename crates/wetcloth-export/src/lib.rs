@@ -18,7 +18,7 @@ mod run_json;
 
 pub use csv::{CSV_HEADER, MetricsCsv, csv_header};
 pub use obj::write_obj;
-pub use run_json::{ColliderInfo, RunInfo, write_run_json, write_run_json_file};
+pub use run_json::{RunInfo, write_run_json, write_run_json_file};
 
 /// `v` as the shortest decimal text that parses back to the same value (Rust's `{:?}`
 /// formatting of `f64`: `0.1`, `101325.0`, `1.5e-20`).

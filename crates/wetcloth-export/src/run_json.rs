@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 use std::io::{self, Write};
-use wetcloth::{Collider, Real, Shape, SimConfig};
+use wetcloth::{Collider, Real, SimConfig};
 
 /// The contents of `run.json`. Key names are a contract with the renderer: keep them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -29,71 +29,14 @@ pub struct RunInfo {
     pub frames: u64,
     /// Whether the run reached its last frame (false while running or after a blow-up).
     pub complete: bool,
-    /// The colliders, in scene order.
-    pub colliders: Vec<ColliderInfo>,
+    /// The colliders, in scene order, each as the scene gives it with its `shape`:
+    /// `{"shape": "plane", "point": [..], "normal": [..], "friction": ..}`,
+    /// `{"shape": "sphere", "center": [..], "radius": .., ...}` or
+    /// `{"shape": "box", "center": [..], "half_extents": [..], ...}` (lengths in m). The
+    /// description is the core's [`Collider`], so every reader draws every shape alike.
+    pub colliders: Vec<Collider>,
     /// Grabbed particles as grid indices `[column, row]`, in scene order.
     pub grabs: Vec<[usize; 2]>,
-}
-
-/// A collider in `run.json`: `{"shape": "plane", "point": [..], "normal": [..], "friction": ..}`,
-/// `{"shape": "sphere", "center": [..], "radius": .., ...}` or
-/// `{"shape": "box", "center": [..], "half_extents": [..], ...}`. Lengths in m.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "shape", rename_all = "lowercase")]
-pub enum ColliderInfo {
-    /// Infinite plane; the solid is on the side opposite the unit normal.
-    Plane {
-        /// A point on the plane.
-        point: [Real; 3],
-        /// Unit normal, out of the solid.
-        normal: [Real; 3],
-        /// Coulomb friction coefficient.
-        friction: Real,
-    },
-    /// Solid sphere.
-    Sphere {
-        /// Centre.
-        center: [Real; 3],
-        /// Radius.
-        radius: Real,
-        /// Coulomb friction coefficient.
-        friction: Real,
-    },
-    /// Solid axis-aligned box.
-    Box {
-        /// Centre.
-        center: [Real; 3],
-        /// Half extents along x, y, z.
-        half_extents: [Real; 3],
-        /// Coulomb friction coefficient.
-        friction: Real,
-    },
-}
-
-impl From<&Collider> for ColliderInfo {
-    fn from(c: &Collider) -> Self {
-        let friction = c.friction;
-        match c.shape {
-            Shape::Plane { point, normal } => ColliderInfo::Plane {
-                point: point.to_array(),
-                normal: normal.to_array(),
-                friction,
-            },
-            Shape::Sphere { center, radius } => ColliderInfo::Sphere {
-                center: center.to_array(),
-                radius,
-                friction,
-            },
-            Shape::Box {
-                center,
-                half_extents,
-            } => ColliderInfo::Box {
-                center: center.to_array(),
-                half_extents: half_extents.to_array(),
-                friction,
-            },
-        }
-    }
 }
 
 impl RunInfo {
@@ -109,7 +52,7 @@ impl RunInfo {
             duration: config.simulation.duration,
             frames,
             complete,
-            colliders: config.colliders.iter().map(ColliderInfo::from).collect(),
+            colliders: config.colliders.clone(),
             grabs: config.grabs.iter().map(|g| g.particle).collect(),
         }
     }

@@ -7,6 +7,7 @@ use serde::Deserialize;
 use std::ops::Range;
 use toml::Spanned;
 use toml::de::DeTable;
+use wetcloth::collide::{Cuboid, Plane, Sphere};
 use wetcloth::{
     AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator, PressureSolve,
     Real, Shape, SimConfig, SimulationParams, Vec3,
@@ -478,22 +479,22 @@ fn collider(
     let friction = c.friction.unwrap_or(DEFAULT_FRICTION);
     let v = |s: Option<Spanned<Arr<Real, 3>>>| s.map(|s| vec3(s.into_inner()));
     let shape = match shape_name {
-        "plane" => Shape::Plane {
+        "plane" => Shape::Plane(Plane {
             point: v(c.point).unwrap_or(Vec3::ZERO),
             normal: unit(v(c.normal).unwrap_or(Vec3::Y)),
-        },
-        "sphere" => Shape::Sphere {
+        }),
+        "sphere" => Shape::Sphere(Sphere {
             center: v(c.center).unwrap_or(Vec3::ZERO),
             radius: c
                 .radius
                 .map(Spanned::into_inner)
                 .ok_or_else(|| missing("radius", "... (m)"))?,
-        },
-        _ => Shape::Box {
+        }),
+        _ => Shape::Box(Cuboid {
             center: v(c.center).unwrap_or(Vec3::ZERO),
             half_extents: v(c.half_extents)
                 .ok_or_else(|| missing("half_extents", "[x, y, z] (m)"))?,
-        },
+        }),
     };
     Ok(Collider { shape, friction })
 }

@@ -1,6 +1,7 @@
 //! Writing a configuration back as a scene file with every key explicit.
 
 use std::fmt::Write;
+use wetcloth::collide::{Cuboid, Plane, Sphere};
 use wetcloth::{Real, Shape, SimConfig, Vec3};
 
 /// A float in TOML: Rust's `{:?}` is the shortest text that parses back to the same `f64` and
@@ -89,24 +90,24 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     for col in &config.colliders {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[collider]]");
-        match col.shape {
-            Shape::Plane { point, normal } => {
+        match &col.shape {
+            Shape::Plane(Plane { point, normal }) => {
                 let _ = writeln!(o, "shape = \"plane\"");
-                let _ = writeln!(o, "point = {}  # m", v3(point));
-                let _ = writeln!(o, "normal = {}", v3(normal));
+                let _ = writeln!(o, "point = {}  # m", v3(*point));
+                let _ = writeln!(o, "normal = {}", v3(*normal));
             }
-            Shape::Sphere { center, radius } => {
+            Shape::Sphere(Sphere { center, radius }) => {
                 let _ = writeln!(o, "shape = \"sphere\"");
-                let _ = writeln!(o, "center = {}  # m", v3(center));
-                let _ = writeln!(o, "radius = {}  # m", f(radius));
+                let _ = writeln!(o, "center = {}  # m", v3(*center));
+                let _ = writeln!(o, "radius = {}  # m", f(*radius));
             }
-            Shape::Box {
+            Shape::Box(Cuboid {
                 center,
                 half_extents,
-            } => {
+            }) => {
                 let _ = writeln!(o, "shape = \"box\"");
-                let _ = writeln!(o, "center = {}  # m", v3(center));
-                let _ = writeln!(o, "half_extents = {}  # m", v3(half_extents));
+                let _ = writeln!(o, "center = {}  # m", v3(*center));
+                let _ = writeln!(o, "half_extents = {}  # m", v3(*half_extents));
             }
         }
         let _ = writeln!(o, "friction = {}", f(col.friction));

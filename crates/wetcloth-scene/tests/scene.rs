@@ -1,6 +1,7 @@
 //! Scene files: defaults, every kind of error with its location, and the resolved round trip.
 
 use std::path::Path;
+use wetcloth::collide::{Cuboid, Plane};
 use wetcloth::{AirParams, ClothParams, Collider, GrabKey, GrabSpec, Shape, SimConfig, Vec3};
 use wetcloth_scene::{SceneError, parse, to_toml};
 
@@ -119,7 +120,10 @@ fn collider_shapes_and_their_defaults() {
     let s = parse(&text, Path::new("c.toml")).unwrap();
     assert_eq!(
         s.config.colliders[0].as_plane(),
-        Some((Vec3::ZERO, Vec3::Y))
+        Some(&Plane {
+            point: Vec3::ZERO,
+            normal: Vec3::Y
+        })
     );
     assert_eq!(
         s.config.colliders[1],
@@ -127,10 +131,10 @@ fn collider_shapes_and_their_defaults() {
     );
     assert_eq!(
         s.config.colliders[2].shape,
-        Shape::Box {
+        Shape::Box(Cuboid {
             center: Vec3::new(1.0, 2.0, 3.0),
             half_extents: Vec3::new(0.1, 0.2, 0.3)
-        }
+        })
     );
     assert_eq!(s.config.colliders[2].friction, 0.6);
 }
@@ -341,13 +345,11 @@ fn full_config() -> SimConfig {
     ));
     c.colliders
         .push(Collider::sphere(Vec3::new(0.0, 1.0, 0.0), 0.125, 0.0));
-    c.colliders.push(Collider {
-        shape: Shape::Box {
-            center: Vec3::new(0.0, -0.5, 0.0),
-            half_extents: Vec3::new(1.0, 0.5, 1.0),
-        },
-        friction: 1.5,
-    });
+    c.colliders.push(Collider::cuboid(
+        Vec3::new(0.0, -0.5, 0.0),
+        Vec3::new(1.0, 0.5, 1.0),
+        1.5,
+    ));
     c.grabs = vec![
         GrabSpec::lift([3, 4], 0.25, 1.25, 0.05),
         GrabSpec {

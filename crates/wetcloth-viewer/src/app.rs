@@ -1223,7 +1223,7 @@ impl ViewerApp {
             ground: s
                 .config
                 .sticking_plane()
-                .map(|(p, n)| (p.as_vec3(), n.as_vec3())),
+                .map(|p| (p.point.as_vec3(), p.up.as_vec3())),
             solids: solids(&s.config),
             show_particles: self.pick_mode,
             particle_radius: particle_size(&s.config),
@@ -1372,19 +1372,19 @@ fn no_negative_zero(x: f64, half_ulp: f64) -> f64 {
 fn solids(c: &SimConfig) -> Vec<Solid> {
     c.colliders
         .iter()
-        .filter_map(|col| match col.shape {
-            Shape::Sphere { center, radius } => Some(Solid::Sphere {
+        .filter_map(|col| match &col.shape {
+            Shape::Sphere(wetcloth::collide::Sphere { center, radius }) => Some(Solid::Sphere {
                 center: center.as_vec3().to_array(),
-                radius: radius as f32,
+                radius: *radius as f32,
             }),
-            Shape::Box {
+            Shape::Box(wetcloth::collide::Cuboid {
                 center,
                 half_extents,
-            } => Some(Solid::Box {
+            }) => Some(Solid::Box {
                 center: center.as_vec3().to_array(),
                 half_extents: half_extents.as_vec3().to_array(),
             }),
-            Shape::Plane { .. } => None,
+            Shape::Plane(_) => None,
         })
         .collect()
 }

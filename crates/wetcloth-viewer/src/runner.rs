@@ -334,14 +334,10 @@ impl State {
         if !same_cloth || self.error.is_some() {
             return self.restart(sim);
         }
-        // Verlet's velocity is (x - x_prev) / dt: keep it across a new time step.
-        let scale = sim.time_step() / self.sim.time_step();
-        let (x, prev) = (self.sim.positions(), self.sim.previous_positions());
-        let mut before = prev.clone();
-        for k in 0..x.len() {
-            before.set(k, x.get(k) - (x.get(k) - prev.get(k)) * scale);
-        }
-        if let Err(e) = sim.set_state(x.clone(), before) {
+        // Keep the particles' velocities across a new time step.
+        let velocities = self.sim.velocities();
+        if let Err(e) = sim.set_positions_and_velocities(self.sim.positions().clone(), &velocities)
+        {
             return self.notify(format!("parameters refused: {e}"));
         }
         sim.set_air_enabled(self.sim.air_enabled());

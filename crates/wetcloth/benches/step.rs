@@ -7,7 +7,7 @@
 //! the self-collision solve are also timed on their own. Single-threaded (the kernels, not the
 //! scheduling); `wetcloth bench` measures threads.
 
-use wetcloth::self_collision::SelfCollision;
+use wetcloth::collide::self_collision::SelfCollision;
 use wetcloth::{SimConfig, Simulation, air, bench::thesis_workload};
 
 fn main() {
@@ -72,7 +72,7 @@ fn full_step(bencher: divan::Bencher, side: usize) {
 #[divan::bench(args = SIDES)]
 fn volume(bencher: divan::Bencher, side: usize) {
     let sim = settled(thesis_workload(side));
-    let plane = (wetcloth::Vec3::ZERO, wetcloth::Vec3::Y);
+    let plane = air::StickingPlane::new(wetcloth::Vec3::ZERO, wetcloth::Vec3::Y);
     bencher
         .counter(divan::counter::ItemsCount::new(sim.grid().len()))
         .bench_local(|| air::volume(sim.grid(), sim.positions(), plane, 0.0));

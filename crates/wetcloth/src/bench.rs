@@ -1,7 +1,7 @@
 //! The benchmark workload (thesis table 4.2): the thesis' model with everything on, a cloth
 //! lying on and settling onto the plane.
 
-use crate::collider::Collider;
+use crate::collide::Collider;
 use crate::math::{Real, Vec3};
 use crate::params::SimConfig;
 

@@ -96,3 +96,19 @@ pub(crate) fn add_assign(p: &mut Soa, c: &Soa) {
         }
     }
 }
+
+/// Fewest rows handed to one parallel task of a row pass. Results never depend on how rows are
+/// split (every particle's sum has a fixed order).
+const MIN_ROWS_PER_TASK: usize = 4;
+
+/// How a row pass over a grid of `nz` rows of `nx` particles is split: `Some(rows per task)`
+/// on the pool, `None` on the calling thread. One block of rows per thread, at least
+/// [`MIN_ROWS_PER_TASK`]: every block recomputes the springs of the row above it and leaves one
+/// row of cells to measure after the join, so fewer, larger blocks do less extra work; on a
+/// quiet machine that measured 3 % faster than two blocks per thread at 50 x 50 and 100 x 100.
+pub(crate) fn row_split(nx: usize, nz: usize) -> Option<usize> {
+    use_pool(nx * nz).then(|| {
+        let tasks = rayon::current_num_threads();
+        nz.div_ceil(tasks).max(MIN_ROWS_PER_TASK)
+    })
+}

@@ -16,18 +16,32 @@
 //!
 //! ## The model (thesis ch. 3)
 //!
-//! - Cloth (3.1, [`cloth`]): a square grid of equal-mass particles, each joined to its 4 grid
+//! - Cloth (3.1, [`model`]): a square grid of equal-mass particles, each joined to its 4 grid
 //!   neighbours by structural springs and its 4 diagonal neighbours by shear springs (Hooke,
 //!   eq. 3.6, [`forces::spring_force`]); particles are spheres of diameter thickness + margin.
-//! - Forces (3.3): gravity (eq. 3.3), springs, optional velocity damping, contact normal force
-//!   and Coulomb friction (eq. 3.4-3.5, [`contact`]), the hand (grabs, [`grab`]) and the
+//! - Forces (3.3, [`forces`]): gravity (eq. 3.3), springs, optional velocity damping, and the
 //!   pressure force (eq. 3.7, [`forces::pressure_force`]) `(P_b - P_a) S N` with the physical
-//!   sign (the atmosphere presses a lifted cloth down).
+//!   sign (the atmosphere presses a lifted cloth down); contact normal force and Coulomb
+//!   friction (eq. 3.4-3.5, [`collide::contact`]); the hand (grabs, [`control`]).
 //! - Air (3.4-3.5, [`air`]): Boyle's law `P_b v = P_a v0` with the bubble volume `v` by eq. 3.10,
 //!   signed prisms under every triangle, so folds cancel.
-//! - Integration: position Verlet (eq. 3.1) at the thesis' step 1/12000 s.
-//! - Self-collision ([`self_collision`]) with a hashed grid and skinned neighbour lists, and
-//!   optional Provot strain limiting ([`strain`]).
+//! - Integration ([`integrate`]): position Verlet (eq. 3.1) at the thesis' step 1/12000 s.
+//! - Self-collision ([`collide::self_collision`]) with a hashed grid and skinned neighbour
+//!   lists, and optional Provot strain limiting ([`constraints::strain_limit`]).
+//!
+//! ## Layout
+//!
+//! | folder | what | add here |
+//! |---|---|---|
+//! | [`params`] | the scene's parameters, one file per table; the stability limit | a parameter |
+//! | [`model`] | what a step reads and never writes: grid, masses, colliders | |
+//! | [`state`] | positions, previous positions or velocities, contacts, step count | |
+//! | [`control`] | grabs and their targets, the air switch | |
+//! | [`forces`] | one pure law and one row loop per force | a new force |
+//! | [`integrate`] | one file per integrator | a new integrator |
+//! | [`collide`] | one file per shape, the contact response, self-collision | a new collider |
+//! | [`air`] | Boyle, the gap volume, the air models, leaks | a new air model |
+//! | [`constraints`] | position corrections (strain limiting) | |
 //!
 //! The step's phases are listed on [`Simulation::step`].
 //!
@@ -52,26 +66,28 @@
 
 pub mod air;
 pub mod bench;
-pub mod cloth;
-pub mod collider;
-pub mod contact;
+pub mod checks;
+pub mod collide;
+pub mod constraints;
+pub mod control;
 pub mod error;
 mod exec;
 pub mod forces;
-pub mod grab;
-mod kernels;
+pub mod integrate;
 pub mod math;
+mod measure;
 pub mod metrics;
+pub mod model;
 pub mod params;
-pub mod self_collision;
 pub mod sim;
-pub mod strain;
+pub mod state;
 
-pub use cloth::Grid;
-pub use collider::{Collider, Shape};
+pub use collide::{Collider, Shape, Surface, SurfaceMesh};
+pub use control::{Control, Grab, GrabKey, GrabMotion, GrabSpec};
 pub use error::{ConfigError, StepError};
-pub use grab::{Grab, GrabKey, GrabMotion, GrabSpec};
 pub use math::{Real, Soa, Vec3};
 pub use metrics::FrameMetrics;
+pub use model::{Grid, Model};
 pub use params::{AirParams, ClothParams, Integrator, PressureSolve, SimConfig, SimulationParams};
 pub use sim::Simulation;
+pub use state::{Motion, State};

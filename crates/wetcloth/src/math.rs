@@ -1,4 +1,4 @@
-//! Scalar and vector types, and the structure-of-arrays position store.
+//! Scalar and vector types, the structure-of-arrays particle store, and row views into it.
 //!
 //! All physics runs in `f64`. The thesis cloth weighs 8 mg per particle and its springs are
 //! 1000 N/m, so gravity stretches a spring by about 80 nm, a few `f32` ulps at 15 cm from the
@@ -73,5 +73,59 @@ impl Soa {
             y: v.iter().map(|p| p.y).collect(),
             z: v.iter().map(|p| p.z).collect(),
         }
+    }
+}
+
+/// Mutable x, y, z slices of one row of a vector field (a run of particles along x).
+pub(crate) struct RowMut<'a> {
+    pub x: &'a mut [Real],
+    pub y: &'a mut [Real],
+    pub z: &'a mut [Real],
+}
+
+impl RowMut<'_> {
+    /// The same slices, read-only.
+    pub fn as_ref(&self) -> RowRef<'_> {
+        RowRef {
+            x: self.x,
+            y: self.y,
+            z: self.z,
+        }
+    }
+}
+
+/// Read-only x, y, z slices of one row of a vector field.
+#[derive(Clone, Copy)]
+pub(crate) struct RowRef<'a> {
+    pub x: &'a [Real],
+    pub y: &'a [Real],
+    pub z: &'a [Real],
+}
+
+impl<'a> RowRef<'a> {
+    /// The sub-row `start..start + len`.
+    #[inline]
+    pub fn slice(self, start: usize, len: usize) -> RowRef<'a> {
+        RowRef {
+            x: &self.x[start..start + len],
+            y: &self.y[start..start + len],
+            z: &self.z[start..start + len],
+        }
+    }
+
+    /// Vector `i` of the row.
+    #[inline]
+    pub fn get(self, i: usize) -> Vec3 {
+        Vec3::new(self.x[i], self.y[i], self.z[i])
+    }
+}
+
+/// Row `r` (particles `r * nx .. (r + 1) * nx`) of `p` as read-only slices.
+#[inline]
+pub(crate) fn row(p: &Soa, nx: usize, r: usize) -> RowRef<'_> {
+    RowRef {
+        x: &p.x[r * nx..(r + 1) * nx],
+        y: &p.y[r * nx..(r + 1) * nx],
+        z: &p.z[r * nx..(r + 1) * nx],
     }
 }

@@ -25,7 +25,8 @@ pub struct FrameMetrics {
     pub air_volume: Real,
     /// Bubble pressure (Boyle, eq. 3.9), Pa; atmospheric with the air force off.
     pub air_pressure: Real,
-    /// Kinetic energy, J, with velocities `(x(t) - x(t - dt)) / dt`.
+    /// Kinetic energy, J ([`crate::State::kinetic_energy`]: Verlet's velocities are
+    /// `(x(t) - x(t - dt)) / dt`).
     pub kinetic_energy: Real,
     /// Largest relative elongation of a structural spring (0.1 = 10 % longer than at rest;
     /// negative when every spring is compressed).
@@ -44,16 +45,13 @@ impl FrameMetrics {
     /// Measures the current state of `sim`.
     pub fn measure(sim: &Simulation) -> Self {
         let grid = sim.grid();
-        let (x, prev) = (sim.positions(), sim.previous_positions());
-        let dt = sim.time_step();
+        let x = sim.positions();
         let n = grid.len();
-        let mut v2 = 0.0;
         let mut max_height = Real::NEG_INFINITY;
         let mut max_stretch = Real::NEG_INFINITY;
         let mut contacts = 0usize;
         for k in 0..n {
             let p = x.get(k);
-            v2 += (p - prev.get(k)).length_squared();
             max_height = max_height.max(p.y);
             contacts += usize::from(sim.in_contact(k));
             let (i, j) = (k % grid.nx, k / grid.nx);
@@ -68,7 +66,9 @@ impl FrameMetrics {
             time: sim.time(),
             air_volume: sim.air_volume(),
             air_pressure: sim.air_pressure(),
-            kinetic_energy: 0.5 * sim.particle_mass() * v2 / (dt * dt),
+            kinetic_energy: sim
+                .state()
+                .kinetic_energy(sim.particle_mass(), sim.time_step()),
             max_stretch,
             contact_fraction: contacts as Real / n as Real,
             max_height,

@@ -1,151 +1,81 @@
 //! The simulation and its step (thesis 3.2, fig. 3.4).
 
-use crate::air;
-use crate::cloth::Grid;
-use crate::collider::Collider;
-use crate::contact;
+use crate::air::{AirModel, Bubble};
+use crate::checks;
+use crate::collide::contact;
+use crate::collide::self_collision::SelfCollision;
+use crate::constraints::strain_limit;
+use crate::control::{Control, Grab, GrabMotion};
 use crate::error::{ConfigError, StepError};
-use crate::forces::RowMut;
-use crate::grab::{Grab, GrabMotion};
-use crate::kernels::{self, PlaneContact, RowCheck, StepConsts, StepScratch};
+use crate::exec;
+use crate::integrate::{Fused, IntegratorState};
 use crate::math::{Real, Soa, Vec3};
+use crate::measure::Measures;
 use crate::metrics::FrameMetrics;
-use crate::params::{PressureSolve, SimConfig};
-use crate::self_collision::SelfCollision;
-use crate::strain;
-use rayon::prelude::*;
+use crate::model::{Grid, Model};
+use crate::params::SimConfig;
+use crate::state::State;
 
-/// A structural spring longer than this many rest lengths means the run has blown up: cloth
-/// tears long before, while strong suction legitimately stretches springs by tens of percent.
-pub const BLOWUP_STRETCH: Real = 10.0;
-
-/// Fewest rows handed to one parallel task. Results never depend on how rows are split (every
-/// particle's sum has a fixed order).
-const MIN_ROWS_PER_TASK: usize = 4;
-
+pub use crate::checks::BLOWUP_STRETCH;
 pub use crate::exec::{PARALLEL_MIN_PARTICLES, PARALLEL_MIN_PARTICLES_IN_POOL};
 
 /// A wet cloth on its colliders, with trapped air and grabs.
 ///
-/// Holds the static description (grid, parameters) and the state (positions at this and the
-/// previous step, as position Verlet needs). [`Simulation::step`] advances by one time step.
+/// Holds the configuration, the static [`Model`] built from it, the [`State`] that changes
+/// every step, the user's [`Control`], the air model, and the scratch of the integrator and the
+/// corrections. [`Simulation::step`] advances by one time step.
 #[derive(Clone, Debug)]
 pub struct Simulation {
     config: SimConfig,
-    grid: Grid,
-    /// Mass of one particle, kg.
-    mass: Real,
-    /// Cloth area per particle S, m^2 (rest area / particle count, thesis 3.4).
-    area_per_particle: Real,
-    /// Rest area of the whole cloth, m^2.
-    cloth_area: Real,
-    radius: Real,
-    sticking: Option<(Vec3, Vec3)>,
-    air_enabled: bool,
-    /// Positions at the current step, m.
-    x: Soa,
-    /// Positions at the previous step, m.
-    prev: Soa,
-    /// Force on each particle during the last step (without the hand), N.
-    force: Soa,
-    contact: Vec<bool>,
-    fixed: Vec<bool>,
-    grabs: Vec<Grab>,
-    targets: Vec<Option<Vec3>>,
-    saved_prev: Vec<Vec3>,
+    model: Model,
+    state: State,
+    control: Control,
+    air: AirModel,
+    integrator: IntegratorState,
     self_collision: Option<SelfCollision>,
-    scratch: Soa,
-    row_checks: Vec<RowCheck>,
-    /// Trapped air v0 now (m^3 at atmospheric pressure): the scene's value, changed by leaks.
-    trapped_air: Real,
-    /// Border particles in order around the cloth (for the leak's open length).
-    border: Vec<u32>,
-    step_scratch: StepScratch,
-    planes: Vec<PlaneContact>,
-    others: Vec<Collider>,
-    volume: Real,
-    /// Bubble volume one step earlier, m^3 (for the implicit pressure's prediction).
-    prev_volume: Real,
-    /// The bubble pressure the last step's pressure force used, Pa.
-    applied_pressure: Real,
-    steps: u64,
+    /// The cell measures (volume, stretch, finiteness) of the current state.
+    measures: Measures,
+    /// Scratch of the position corrections.
+    corrections: Soa,
 }
 
 impl Simulation {
     /// Builds a simulation at t = 0 from a validated configuration.
     pub fn new(config: SimConfig) -> Result<Self, ConfigError> {
         config.validate()?;
-        let grid = Grid::new(&config.cloth);
-        let n = grid.len();
-        let x = grid.rest_positions(config.cloth.position);
-        let cloth_area = config.cloth.size[0] * config.cloth.size[1];
-        let radius = config.cloth.particle_radius();
-        let grabs = config
+        let model = Model::new(&config);
+        let n = model.grid.len();
+        let mut control = Control::new(n, config.air.enabled);
+        control.grabs = config
             .grabs
             .iter()
             .map(|g| {
                 Grab::new(
-                    grid.index(g.particle[0], g.particle[1]),
+                    model.grid.index(g.particle[0], g.particle[1]),
                     GrabMotion::Path(g.clone()),
                 )
             })
             .collect();
-        let self_collision = config
-            .cloth
-            .self_collision
-            .then(|| SelfCollision::new(n, 2.0 * radius));
         let mut sim = Self {
-            mass: config.cloth.mass / n as Real,
-            area_per_particle: cloth_area / n as Real,
-            cloth_area,
-            radius,
-            sticking: config.sticking_plane(),
-            air_enabled: config.air.enabled,
-            prev: x.clone(),
-            x,
-            force: Soa::zeros(n),
-            contact: vec![false; n],
-            fixed: vec![false; n],
-            grabs,
-            targets: Vec::new(),
-            saved_prev: Vec::new(),
-            self_collision,
-            scratch: Soa::zeros(n),
-            row_checks: vec![RowCheck::default(); grid.nz],
-            trapped_air: config.air.trapped_air,
-            border: border_loop(&grid),
-            step_scratch: StepScratch::new(grid.nx),
-            planes: config
-                .colliders
-                .iter()
-                .filter_map(|c| {
-                    c.as_plane().map(|(point, normal)| PlaneContact {
-                        normal,
-                        offset: normal.dot(point) + radius,
-                        friction: c.friction,
-                    })
-                })
-                .collect(),
-            others: config
-                .colliders
-                .iter()
-                .filter(|c| c.as_plane().is_none())
-                .copied()
-                .collect(),
-            volume: 0.0,
-            prev_volume: 0.0,
-            applied_pressure: 0.0,
-            steps: 0,
-            grid,
+            state: State::at_rest(model.grid.rest_positions(config.cloth.position)),
+            control,
+            air: AirModel::new(&config.air),
+            integrator: IntegratorState::new(config.simulation.integrator, &model),
+            self_collision: config
+                .cloth
+                .self_collision
+                .then(|| SelfCollision::new(n, 2.0 * model.radius)),
+            measures: Measures::new(model.grid.nz),
+            corrections: Soa::zeros(n),
+            model,
             config,
         };
-        sim.update_air_and_check()
+        sim.remeasure_and_check()
             .map_err(|e| ConfigError::Invalid {
                 key: "cloth.position".into(),
                 message: e.to_string(),
             })?;
-        sim.prev_volume = sim.volume;
-        sim.applied_pressure = sim.air_pressure();
+        sim.settle_air_history();
         Ok(sim)
     }
 
@@ -154,44 +84,69 @@ impl Simulation {
         &self.config
     }
 
+    /// The static model: grid, masses, colliders.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The state: positions, motion, contacts, step count.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// The user's input: grabs and the air switch.
+    pub fn control(&self) -> &Control {
+        &self.control
+    }
+
+    /// The air model and its state.
+    pub fn air(&self) -> &AirModel {
+        &self.air
+    }
+
     /// The particle grid.
     pub fn grid(&self) -> &Grid {
-        &self.grid
+        &self.model.grid
     }
 
     /// Particle positions at the current time, m (structure of arrays).
     pub fn positions(&self) -> &Soa {
-        &self.x
+        &self.state.x
     }
 
-    /// Particle positions at the previous step, m.
-    pub fn previous_positions(&self) -> &Soa {
-        &self.prev
+    /// Particle positions one step earlier, m.
+    pub fn previous_positions(&self) -> Soa {
+        self.state.previous_positions(self.time_step())
+    }
+
+    /// Particle velocities, m/s.
+    pub fn velocities(&self) -> Soa {
+        self.state.velocities(self.time_step())
     }
 
     /// Mass of one particle, kg.
     pub fn particle_mass(&self) -> Real {
-        self.mass
+        self.model.particle_mass
     }
 
     /// Radius of a particle's collision sphere, m.
     pub fn particle_radius(&self) -> Real {
-        self.radius
+        self.model.radius
     }
 
     /// Cloth area per particle S, m^2.
     pub fn area_per_particle(&self) -> Real {
-        self.area_per_particle
+        self.model.area_per_particle
     }
 
     /// Simulated time, s.
     pub fn time(&self) -> Real {
-        self.steps as Real * self.config.simulation.time_step
+        self.state.steps as Real * self.config.simulation.time_step
     }
 
     /// Steps taken since t = 0.
     pub fn step_count(&self) -> u64 {
-        self.steps
+        self.state.steps
     }
 
     /// The time step, s.
@@ -199,106 +154,99 @@ impl Simulation {
         self.config.simulation.time_step
     }
 
+    fn bubble(&self) -> &Bubble {
+        self.air.bubble()
+    }
+
     /// Bubble volume (eq. 3.10) of the current state, m^3; 0 without a sticking plane.
     pub fn air_volume(&self) -> Real {
-        self.volume
+        self.bubble().volume
     }
 
     /// Bubble pressure P_b by Boyle's law, Pa. With the air force off the cloth is treated as
     /// permeable, and the pressure under it is atmospheric.
     pub fn air_pressure(&self) -> Real {
-        let a = &self.config.air;
-        if self.air_enabled {
-            air::boyle_pressure(
-                a.atmospheric_pressure,
-                self.trapped_air,
-                self.volume,
-                self.cloth_area,
-            )
-        } else {
-            a.atmospheric_pressure
-        }
+        self.bubble()
+            .pressure(&self.config.air, &self.model, self.control.air_enabled)
     }
 
     /// Trapped air now, m^3 at atmospheric pressure: the scene's `trapped_air` plus what has
     /// leaked in since (see `AirParams::leak_conductance`).
     pub fn trapped_air(&self) -> Real {
-        self.trapped_air
+        self.bubble().trapped_air
     }
 
-    /// Length of the cloth's border lifted off every collider during the last step, m: a border
-    /// edge counts fully when neither of its particles touched anything, and half when one of
-    /// them did (the gap opens somewhere along it).
+    /// The bubble pressure the last step's pressure force used, Pa: Boyle's law at the start of
+    /// the step ([`crate::PressureSolve::Explicit`]) or the predicted end-of-step pressure
+    /// ([`crate::PressureSolve::Implicit`]); [`Simulation::air_pressure`] is Boyle's law on the
+    /// current state.
+    pub fn applied_pressure(&self) -> Real {
+        self.bubble().applied_pressure
+    }
+
+    /// Length of the cloth's border lifted off every collider during the last step, m (see
+    /// [`crate::air::leak::open_border_length`]).
     pub fn open_border_length(&self) -> Real {
-        let n = self.border.len();
-        (0..n)
-            .map(|e| {
-                let (a, b) = (self.border[e] as usize, self.border[(e + 1) % n] as usize);
-                let lifted = u8::from(!self.contact[a]) + u8::from(!self.contact[b]);
-                0.5 * Real::from(lifted) * self.grid.rest_distance(a, b)
-            })
-            .sum()
+        crate::air::leak::open_border_length(&self.model, &self.state.contact)
     }
 
     /// Whether the pressure force acts.
     pub fn air_enabled(&self) -> bool {
-        self.air_enabled
+        self.control.air_enabled
     }
 
     /// Turns the pressure force on or off (the demo's button 1). Turning it on needs a sticking
     /// plane; without one the call is ignored and returns false.
     pub fn set_air_enabled(&mut self, on: bool) -> bool {
-        self.air_enabled = on && self.sticking.is_some();
-        self.air_enabled == on
+        self.control.air_enabled = on && self.model.sticking.is_some();
+        self.control.air_enabled == on
     }
 
     /// Whether particle `k` touched a collider during the last step.
     pub fn in_contact(&self, k: usize) -> bool {
-        self.contact[k]
+        self.state.contact[k]
     }
 
     /// The grabs.
     pub fn grabs(&self) -> &[Grab] {
-        &self.grabs
+        &self.control.grabs
     }
 
     /// Adds a grab; returns its index.
     pub fn add_grab(&mut self, grab: Grab) -> usize {
-        self.grabs.push(grab);
-        self.grabs.len() - 1
+        self.control.grabs.push(grab);
+        self.control.grabs.len() - 1
     }
 
     /// Removes grab `index` (the particle is released with its current velocity).
     pub fn remove_grab(&mut self, index: usize) -> Grab {
-        let g = self.grabs.remove(index);
-        self.fixed[g.particle] = false;
-        g
+        self.control.remove(index)
     }
 
     /// Mutable access to grab `index` (to move an interactive target).
     pub fn grab_mut(&mut self, index: usize) -> &mut Grab {
-        &mut self.grabs[index]
+        &mut self.control.grabs[index]
     }
 
     /// Summed force of all grabs on the cloth during the last step, N.
     pub fn grab_force(&self) -> Vec3 {
-        self.grabs.iter().map(|g| g.force).sum()
+        self.control.grabs.iter().map(|g| g.force).sum()
     }
 
-    /// Heap memory the simulation holds, bytes: particle state, forces, flags, scratch and the
-    /// self-collision lists (the thread pool's own per-thread spring scratch, a few rows, is
-    /// not counted).
+    /// Heap memory the simulation holds, bytes: model, state, control, integrator scratch,
+    /// measures, corrections and the self-collision lists (the thread pool's own per-thread
+    /// spring rows, a few rows each, are not counted).
     pub fn memory_bytes(&self) -> usize {
-        let n = self.grid.len();
-        self.x.heap_bytes()
-            + self.prev.heap_bytes()
-            + self.force.heap_bytes()
-            + self.scratch.heap_bytes()
-            + 2 * n // contact and fixed flags
-            + self.row_checks.capacity() * std::mem::size_of::<RowCheck>()
-            + self.border.capacity() * 4
-            + self.step_scratch.heap_bytes()
-            + self.self_collision.as_ref().map_or(0, SelfCollision::heap_bytes)
+        self.model.heap_bytes()
+            + self.state.heap_bytes()
+            + self.control.heap_bytes()
+            + self.integrator.heap_bytes()
+            + self.measures.heap_bytes()
+            + self.corrections.heap_bytes()
+            + self
+                .self_collision
+                .as_ref()
+                .map_or(0, SelfCollision::heap_bytes)
     }
 
     /// Number of self-collision neighbour-list rebuilds so far.
@@ -312,73 +260,68 @@ impl Simulation {
     pub fn set_state(&mut self, positions: Soa, previous: Soa) -> Result<(), StepError> {
         assert_eq!(
             positions.len(),
-            self.grid.len(),
+            self.grid().len(),
             "one position per particle"
         );
         assert_eq!(
             previous.len(),
-            self.grid.len(),
+            self.grid().len(),
             "one previous position per particle"
         );
-        self.x = positions;
-        self.prev = previous;
-        if let Some(sc) = &mut self.self_collision {
-            *sc = SelfCollision::new(self.grid.len(), 2.0 * self.radius);
+        let dt = self.time_step();
+        let velocities = Soa::from_vec3(
+            &(0..positions.len())
+                .map(|k| (positions.get(k) - previous.get(k)) / dt)
+                .collect::<Vec<_>>(),
+        );
+        self.state.x = positions;
+        match &mut self.state.motion {
+            crate::state::Motion::Previous(p) => *p = previous,
+            crate::state::Motion::Velocity(_) => self.state.set_velocities(&velocities, dt),
         }
-        self.update_air_and_check()?;
-        self.prev_volume = self.volume;
+        self.restart_lists_and_measures()
+    }
+
+    /// Replaces the particle positions (m) and velocities (m/s).
+    pub fn set_positions_and_velocities(
+        &mut self,
+        positions: Soa,
+        velocities: &Soa,
+    ) -> Result<(), StepError> {
+        assert_eq!(
+            positions.len(),
+            self.grid().len(),
+            "one position per particle"
+        );
+        assert_eq!(
+            velocities.len(),
+            self.grid().len(),
+            "one velocity per particle"
+        );
+        self.state.x = positions;
+        self.state.set_velocities(velocities, self.time_step());
+        self.restart_lists_and_measures()
+    }
+
+    fn restart_lists_and_measures(&mut self) -> Result<(), StepError> {
+        if let Some(sc) = &mut self.self_collision {
+            *sc = SelfCollision::new(self.model.grid.len(), 2.0 * self.model.radius);
+        }
+        self.remeasure_and_check()?;
+        self.settle_air_history();
         Ok(())
     }
 
-    /// The bubble pressure the last step's pressure force used, Pa: Boyle's law at the start of
-    /// the step ([`PressureSolve::Explicit`]) or the predicted end-of-step pressure
-    /// ([`PressureSolve::Implicit`]); [`Simulation::air_pressure`] is Boyle's law on the current
-    /// state.
-    pub fn applied_pressure(&self) -> Real {
-        self.applied_pressure
-    }
-
-    /// The bubble pressure this step's pressure force uses, Pa (see [`PressureSolve`]).
-    fn step_pressure(&self, dt: Real) -> Real {
-        let a = &self.config.air;
-        let k = a.atmospheric_pressure * self.trapped_air;
-        if a.pressure_solve == PressureSolve::Explicit || k == 0.0 {
-            return self.air_pressure();
-        }
-        // The bubble as a single degree of freedom: over one Verlet step a pressure P moves
-        // every particle not held by a contact by h (P - P_a) S along its normal (h = dt^2/m,
-        // halved on the Taylor first step), which changes the volume by c (P - P_a) with
-        // c = h S^2 n_free. Inertia (damped), gravity and that term predict the volume at the
-        // end of the step; P solves P * v(P) = K = P_a v0:
-        //   c P^2 + a0 P - K = 0,  a0 = v_coast - c P_a,
-        // whose positive root, written without cancellation, is 2K / (a0 + sqrt(a0^2 + 4cK)).
-        let first = self.steps == 0;
-        let h = dt * dt / self.mass * if first { 0.5 } else { 1.0 };
-        let s = self.area_per_particle;
-        let held = self
-            .contact
-            .iter()
-            .zip(&self.fixed)
-            .filter(|(c, f)| **c || **f)
-            .count();
-        let free = (self.grid.len() - held) as Real;
-        let c = h * s * s * free;
-        let up = self.sticking.map_or(Vec3::Y, |(_, n)| n);
-        let keep = (1.0 - self.config.cloth.damping * dt).max(0.0);
-        let gravity = h * self.mass * self.config.simulation.gravity.dot(up) * s * free;
-        let coast = self.volume + keep * (self.volume - self.prev_volume) + gravity;
-        let a0 = coast - c * a.atmospheric_pressure;
-        let root = (a0 * a0 + 4.0 * c * k).sqrt();
-        if a0 + root > 0.0 {
-            2.0 * k / (a0 + root)
-        } else {
-            self.air_pressure()
-        }
+    /// Forgets the air's history: the previous volume becomes the current one.
+    fn settle_air_history(&mut self) {
+        let AirModel::Thesis(b) = &mut self.air;
+        b.prev_volume = b.volume;
+        b.applied_pressure = b.pressure(&self.config.air, &self.model, self.control.air_enabled);
     }
 
     /// Resets to the state at t = 0 (the demo's button 3), keeping the air switch.
     pub fn reset(&mut self) -> Result<(), ConfigError> {
-        let air = self.air_enabled;
+        let air = self.control.air_enabled;
         *self = Self::new(self.config.clone())?;
         self.set_air_enabled(air);
         Ok(())
@@ -389,292 +332,146 @@ impl Simulation {
         FrameMetrics::measure(self)
     }
 
-    /// Advances by one time step (thesis fig. 3.4):
+    /// Advances by one time step: thesis fig. 3.4, as these phases.
     ///
-    /// 1. read the grabs' targets for `t + dt` (the user's input, 3.2 step 1);
-    /// 2. sum the forces on every particle: gravity (eq. 3.3), springs (eq. 3.6), damping, and
-    ///    the pressure force `(P_b - P_a) S N` (eq. 3.7, physical sign) with `P_b` from Boyle's
-    ///    law on the current bubble volume (3.4-3.5);
-    /// 3. integrate with position Verlet (eq. 3.1) and resolve contacts with the colliders:
-    ///    (the first step is the Taylor start `x1 = x0 + v0 dt + a dt^2 / 2`, with `v0 dt` given
-    ///    by `x0 - x_prev`, which makes the scheme exact for constant acceleration);
-    ///    normal force and Coulomb friction (eq. 3.4-3.5), all in one pass over the rows;
-    /// 4. move grabbed particles onto their targets and record the hand's force (3.2 step 3);
-    /// 5. optional Provot strain limiting, then self-collision (3.1), then push anything those
-    ///    corrections moved back out of the colliders;
-    /// 6. measure the new bubble volume (eq. 3.10) and check the state for a blow-up (in the
-    ///    pass of phases 2-3 where nothing moved the particles afterwards).
+    /// 1. **Input** (3.2 step 1): each grab's target at `t + dt` ([`crate::control`]).
+    /// 2. **Air load** (3.4-3.5): the bubble pressure `P_b` the pressure force uses during the
+    ///    step, by Boyle's law (eq. 3.9) on the current volume or predicted at the end of the
+    ///    step ([`crate::air`]).
+    /// 3. **Integrate** (3.1-3.3): forces (gravity eq. 3.3, springs eq. 3.6, damping, pressure
+    ///    `(P_b - P_a) S N` eq. 3.7 with the physical sign), the integrator's move (position
+    ///    Verlet, eq. 3.1), contacts with the colliders (normal force and Coulomb friction,
+    ///    eq. 3.4-3.5) and the hand placing grabbed particles (3.2 step 3), in one fused pass
+    ///    that also measures the new state ([`crate::integrate`]).
+    /// 4. **Leak**: air through the lifted border during the step ([`crate::air::leak`]).
+    /// 5. **Corrections**: Provot strain limiting, self-collision (3.1), and anything they moved
+    ///    pushed back out of the colliders ([`crate::constraints`], [`crate::collide`]).
+    /// 6. **Measure and check** (3.5): the new bubble volume (eq. 3.10) and the blow-up checks
+    ///    ([`crate::checks`]); measured in phase 3 unless phase 5 moved particles.
     pub fn step(&mut self) -> Result<(), StepError> {
         let dt = self.config.simulation.time_step;
-        let t_next = (self.steps + 1) as Real * dt;
+        let t_next = (self.state.steps + 1) as Real * dt;
 
-        // 1. Grab targets.
-        self.targets.clear();
-        self.saved_prev.clear();
-        for g in &mut self.grabs {
-            self.fixed[g.particle] = false;
-        }
-        for g in &mut self.grabs {
-            let target = g.target(t_next, self.x.get(g.particle), dt);
-            self.targets.push(target);
-            self.saved_prev.push(self.prev.get(g.particle));
-        }
+        // 1. Input.
+        self.control.begin_step(&self.state.x, t_next, dt);
 
-        // 2-3. Forces, Verlet, contacts: one pass; x(t+dt) overwrites x(t-dt) in place.
-        let c = &self.config;
-        self.applied_pressure = if self.air_enabled {
-            self.step_pressure(dt)
-        } else {
-            c.air.atmospheric_pressure
-        };
-        let pressure_area =
-            (self.applied_pressure - c.air.atmospheric_pressure) * self.area_per_particle;
-        let consts = StepConsts {
-            grid: &self.grid,
-            planes: &self.planes,
-            others: &self.others,
-            mass: self.mass,
-            gravity: c.simulation.gravity,
-            damp: c.cloth.damping * self.mass / dt,
-            structural: c.cloth.structural_stiffness,
-            shear: c.cloth.shear_stiffness,
-            rest_x: self.grid.dx,
-            rest_z: self.grid.dz,
-            rest_diag: self.grid.dx.hypot(self.grid.dz),
-            pressure_area,
-            radius: self.radius,
-            h: dt * dt / self.mass * if self.steps == 0 { 0.5 } else { 1.0 },
-            reference: self
-                .self_collision
-                .as_ref()
-                .and_then(SelfCollision::reference),
-            sticking: self.sticking,
-        };
-        let nx = self.grid.nx;
-        let x = &self.x;
-        let parallel = self.parallel();
-        let rows = self.rows_per_task();
-        let (p, f) = (&mut self.prev, &mut self.force);
-        let moved2 = if parallel {
-            // Blocks of rows, one task each; the split never changes the result.
-            let block = nx * rows;
-            (
-                p.x.par_chunks_mut(block),
-                p.y.par_chunks_mut(block),
-                p.z.par_chunks_mut(block),
-                f.x.par_chunks_mut(block),
-                f.y.par_chunks_mut(block),
-                f.z.par_chunks_mut(block),
-                self.contact.par_chunks_mut(block),
-                self.row_checks.par_chunks_mut(rows),
-            )
-                .into_par_iter()
-                .enumerate()
-                .map(|(b, (px, py, pz, fx, fy, fz, contact, checks))| {
-                    THREAD_SCRATCH.with_borrow_mut(|scratch| {
-                        if !scratch.fits(nx) {
-                            *scratch = StepScratch::new(nx);
-                        }
-                        let mut prev = RowMut {
-                            x: px,
-                            y: py,
-                            z: pz,
-                        };
-                        let mut force = RowMut {
-                            x: fx,
-                            y: fy,
-                            z: fz,
-                        };
-                        let j0 = b * rows;
-                        kernels::step_rows(
-                            &consts, j0, x, &mut prev, &mut force, contact, checks, scratch,
-                        )
-                    })
-                })
-                .reduce(|| 0.0, Real::max)
-        } else {
-            let mut prev = RowMut {
-                x: &mut p.x,
-                y: &mut p.y,
-                z: &mut p.z,
-            };
-            let mut force = RowMut {
-                x: &mut f.x,
-                y: &mut f.y,
-                z: &mut f.z,
-            };
-            let scratch = &mut self.step_scratch;
-            kernels::step_rows(
-                &consts,
-                0,
-                x,
-                &mut prev,
-                &mut force,
-                &mut self.contact,
-                &mut self.row_checks,
-                scratch,
-            )
-        };
-        std::mem::swap(&mut self.x, &mut self.prev);
-        // The checks of the cell rows that straddle two blocks (see `kernels::step_rows`).
-        if parallel {
-            for j in (rows - 1..self.grid.nz - 1).step_by(rows) {
-                self.recheck_row(j);
-            }
-        }
+        // 2. Air load.
+        let load = self.air.begin_step(
+            &self.config.air,
+            &self.model,
+            &self.state,
+            &self.control,
+            dt,
+        );
 
-        // Air leaking in (or out) where the border is lifted off the surface, at the pressure of
-        // the step's start (explicit Euler on the amount of air).
-        let a = &self.config.air;
-        if self.air_enabled && a.leak_conductance > 0.0 && a.atmospheric_pressure > 0.0 {
-            let pa = a.atmospheric_pressure;
-            let flow =
-                a.leak_conductance * self.open_border_length() * (pa - self.air_pressure()) / pa;
-            self.trapped_air = (self.trapped_air + flow * dt).max(0.0);
-        }
+        // 3. Integrate.
+        let reference = self
+            .self_collision
+            .as_ref()
+            .and_then(SelfCollision::reference);
+        let moved2 = self.integrator.step(
+            &self.model,
+            &mut self.state,
+            &mut self.control,
+            load,
+            dt,
+            Fused {
+                reference,
+                measures: &mut self.measures,
+                rows_per_task: exec::row_split(self.model.grid.nx, self.model.grid.nz),
+            },
+        );
 
-        // 4. Grabs: cancel the particle's own motion, carry it to its target, and record the
-        // force of the hand that does so.
-        let m_dt2 = self.mass / (dt * dt);
-        for (g, (target, before)) in self
-            .grabs
-            .iter_mut()
-            .zip(self.targets.iter().zip(&self.saved_prev))
-        {
-            let k = g.particle;
-            match target {
-                Some(target) => {
-                    let accel = (*target - 2.0 * self.prev.get(k) + *before) * m_dt2;
-                    g.force = accel - self.force.get(k);
-                    self.x.set(k, *target);
-                    self.fixed[k] = true;
-                }
-                None => g.force = Vec3::ZERO,
-            }
-        }
-        // The checks of the cells around the particles the grabs moved.
-        for i in 0..self.grabs.len() {
-            if self.targets[i].is_some() {
-                let j = self.grabs[i].particle / self.grid.nx;
-                self.recheck_row(j.saturating_sub(1));
-                self.recheck_row(j);
-            }
-        }
+        // 4. Leak.
+        self.air.leak(
+            &self.config.air,
+            &self.model,
+            &self.state.contact,
+            self.control.air_enabled,
+            dt,
+        );
 
-        // 5. Position corrections. How far the particles moved from where the self-collision
-        // lists were built: measured in the main pass, plus the grabbed particles' moves.
+        // 5. Corrections.
+        let corrected = self.correct(moved2);
+
+        // 6. Measure and check.
+        self.state.steps += 1;
+        if corrected {
+            self.remeasure_all();
+        }
+        self.finish_measures()
+    }
+
+    /// Phase 5: strain limiting, self-collision, and the collider re-projection; `moved2` is how
+    /// far (squared, m^2) the integrator moved particles from the self-collision lists'
+    /// reference. Returns whether anything moved.
+    fn correct(&mut self, moved2: Real) -> bool {
+        let (model, state, control) = (&self.model, &mut self.state, &self.control);
+        // The grabbed particles' moves count too.
         let mut moved2 = moved2;
         if let Some(r) = self
             .self_collision
             .as_ref()
             .and_then(SelfCollision::reference)
         {
-            for g in &self.grabs {
-                moved2 = moved2.max((self.x.get(g.particle) - r.get(g.particle)).length_squared());
+            for g in &control.grabs {
+                moved2 = moved2.max((state.x.get(g.particle) - r.get(g.particle)).length_squared());
             }
         }
         let mut corrected = false;
         let cloth = &self.config.cloth;
         if cloth.strain_limit > 0.0 {
-            corrected |= strain::limit_strain(
-                &self.grid,
-                &mut self.x,
-                &mut self.scratch,
-                &self.fixed,
+            corrected |= strain_limit::limit_strain(
+                &model.grid,
+                &mut state.x,
+                &mut self.corrections,
+                &control.held,
                 cloth.strain_limit,
                 cloth.strain_limit_iterations,
             ) > 0;
         }
         if let Some(sc) = &mut self.self_collision {
-            // Strain limiting moves particles after the main pass: then measure again.
+            // Strain limiting moves particles after the integrator: then measure again.
             let moved = (!corrected).then_some(moved2);
-            corrected |= sc.solve_moved(&self.grid, &mut self.x, &self.fixed, moved) > 0;
+            corrected |= sc.solve_moved(&model.grid, &mut state.x, &control.held, moved) > 0;
         }
-        if corrected && !self.config.colliders.is_empty() {
-            let (colliders, r, fixed) = (&self.config.colliders, self.radius, &self.fixed);
-            crate::exec::map_in_place(&mut self.x, |k, p| {
-                if fixed[k] {
+        if corrected && !model.colliders.is_empty() {
+            let (colliders, r, held) = (&model.colliders, model.radius, &control.held);
+            exec::map_in_place(&mut state.x, |k, p| {
+                if held[k] {
                     p
                 } else {
                     contact::project(colliders, p, r)
                 }
             });
         }
-
-        self.steps += 1;
-        // 6. Bubble volume and blow-up check: measured in the main pass unless a correction
-        // moved particles since.
-        if corrected {
-            self.recheck_all();
-        }
-        self.finish_checks()
+        corrected
     }
 
-    /// Recomputes the bubble volume of the current state and checks for non-finite positions
-    /// and over-stretched structural springs, in one pass over the rows.
-    fn update_air_and_check(&mut self) -> Result<(), StepError> {
-        self.recheck_all();
-        self.finish_checks()
+    /// Measures the current state from scratch and checks it.
+    fn remeasure_and_check(&mut self) -> Result<(), StepError> {
+        self.remeasure_all();
+        self.finish_measures()
     }
 
-    /// Recomputes the check of the cells between row `j` and the next (or of the last row).
-    fn recheck_row(&mut self, j: usize) {
-        self.row_checks[j] = kernels::check_row(&self.grid, &self.x, j, self.sticking, self.radius);
+    /// Re-measures every row of cells from the current positions.
+    fn remeasure_all(&mut self) {
+        let grid = &self.model.grid;
+        self.measures.remeasure_all(
+            grid,
+            &self.state.x,
+            self.model.sticking,
+            self.model.radius,
+            exec::row_split(grid.nx, grid.nz),
+        );
     }
 
-    /// Recomputes every row's check from the current positions.
-    fn recheck_all(&mut self) {
-        let parallel = self.parallel();
-        let (grid, x, sticking, offset) = (&self.grid, &self.x, self.sticking, self.radius);
-        let check = |(j, out): (usize, &mut RowCheck)| {
-            *out = kernels::check_row(grid, x, j, sticking, offset);
-        };
-        if parallel {
-            let rows = self.rows_per_task();
-            self.row_checks
-                .par_iter_mut()
-                .enumerate()
-                .with_min_len(rows)
-                .for_each(check);
-        } else {
-            self.row_checks.iter_mut().enumerate().for_each(check);
-        }
-    }
-
-    /// Sums the rows' checks: the new bubble volume, and an error if the state blew up.
-    fn finish_checks(&mut self) -> Result<(), StepError> {
-        let time = self.time();
-        let mut worst: Real = 0.0;
-        for r in &self.row_checks {
-            if !r.finite_probe.is_finite() || r.stretch2.is_nan() {
-                return Err(StepError::NonFinite { time });
-            }
-            worst = worst.max(r.stretch2);
-        }
-        if worst > BLOWUP_STRETCH * BLOWUP_STRETCH {
-            return Err(StepError::OverStretch {
-                time,
-                ratio: worst.sqrt(),
-                limit: BLOWUP_STRETCH,
-            });
-        }
-        self.prev_volume = self.volume;
-        self.volume = self.row_checks.iter().map(|r| r.volume).sum();
+    /// Checks the measures of the current state and hands the new volume to the air model.
+    fn finish_measures(&mut self) -> Result<(), StepError> {
+        let totals = self.measures.totals();
+        checks::check(&totals, self.time())?;
+        self.air.set_volume(totals.volume);
         Ok(())
-    }
-
-    /// Whether the row passes go to the thread pool (results are identical either way).
-    fn parallel(&self) -> bool {
-        crate::exec::use_pool(self.grid.len())
-    }
-
-    /// Rows per parallel task: one block of rows per thread, at least [`MIN_ROWS_PER_TASK`].
-    /// Every block recomputes the springs of the row above it and leaves one row of cells to
-    /// check after the join, so fewer, larger blocks do less extra work; on a quiet machine
-    /// that measured 3 % faster than two blocks per thread at 50 x 50 and 100 x 100.
-    fn rows_per_task(&self) -> usize {
-        let tasks = rayon::current_num_threads();
-        self.grid.nz.div_ceil(tasks).max(MIN_ROWS_PER_TASK)
     }
 
     /// Takes `steps` steps (see [`Simulation::step`]), on the thread pool when the cloth is big
@@ -683,7 +480,7 @@ impl Simulation {
     pub fn advance(&mut self, steps: u64) -> Result<(), StepError> {
         let pooled = rayon::current_num_threads() > 1
             && rayon::current_thread_index().is_none()
-            && self.grid.len() >= PARALLEL_MIN_PARTICLES_IN_POOL;
+            && self.grid().len() >= PARALLEL_MIN_PARTICLES_IN_POOL;
         let run = |sim: &mut Self| (0..steps).try_for_each(|_| sim.step());
         if pooled {
             rayon::scope(|_| run(self))
@@ -691,23 +488,6 @@ impl Simulation {
             run(self)
         }
     }
-}
-
-thread_local! {
-    /// Spring scratch of a pool thread, sized on first use (no allocation in later steps).
-    static THREAD_SCRATCH: std::cell::RefCell<StepScratch> =
-        std::cell::RefCell::new(StepScratch::default());
-}
-
-/// The border particles of `grid` in order around it (each once).
-fn border_loop(grid: &Grid) -> Vec<u32> {
-    let (nx, nz) = (grid.nx, grid.nz);
-    let mut b = Vec::with_capacity(2 * (nx + nz));
-    b.extend((0..nx).map(|i| grid.index(i, 0)));
-    b.extend((1..nz).map(|j| grid.index(nx - 1, j)));
-    b.extend((0..nx - 1).rev().map(|i| grid.index(i, nz - 1)));
-    b.extend((1..nz - 1).rev().map(|j| grid.index(0, j)));
-    b.into_iter().map(|k| k as u32).collect()
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! The physics of the thesis model against closed forms. Each test states the law, the set-up
 //! and why its tolerance is what it is.
 
-use wetcloth::air::{self, volume};
+use wetcloth::air::{self, StickingPlane, volume};
 use wetcloth::forces::{pressure_force, spring_force};
 use wetcloth::{AirParams, ClothParams, Collider, Grid, Real, SimConfig, Simulation, Soa, Vec3};
 
@@ -50,10 +50,10 @@ fn grid_of(n: [usize; 2], size: [Real; 2]) -> Grid {
 fn volume_of_a_flat_cloth_is_area_times_height() {
     let g = grid_of([11, 7], [0.3, 0.2]);
     let p = g.rest_positions(Vec3::new(0.5, 0.04, -0.2));
-    let v = volume(&g, &p, (Vec3::ZERO, Vec3::Y), 0.0);
+    let v = volume(&g, &p, StickingPlane::new(Vec3::ZERO, Vec3::Y), 0.0);
     assert!((v - 0.3 * 0.2 * 0.04).abs() < 1e-15, "{v}");
     // Measured from the particle spheres' bottom: a cloth resting on the plane holds no air.
-    let v = volume(&g, &p, (Vec3::ZERO, Vec3::Y), 0.04);
+    let v = volume(&g, &p, StickingPlane::new(Vec3::ZERO, Vec3::Y), 0.04);
     assert!(v.abs() < 1e-15);
 }
 
@@ -67,19 +67,19 @@ fn volume_of_tilted_and_tent_shaped_cloths_is_exact() {
     for k in 0..g.len() {
         p.y[k] = 0.05 + 0.2 * p.x[k];
     }
-    let v = volume(&g, &p, (Vec3::ZERO, Vec3::Y), 0.0);
+    let v = volume(&g, &p, StickingPlane::new(Vec3::ZERO, Vec3::Y), 0.0);
     // The tilted sheet's projected area is still 0.3 x 0.3 (x and z unchanged).
     assert!((v - 0.09 * 0.05).abs() < 1e-15, "tilted {v}");
     // Tent: ridge along z at x = 0 (column 10), height H, down to 0 at x = +-0.15: V = A H / 2.
     for k in 0..g.len() {
         p.y[k] = 0.04 * (1.0 - p.x[k].abs() / 0.15);
     }
-    let v = volume(&g, &p, (Vec3::ZERO, Vec3::Y), 0.0);
+    let v = volume(&g, &p, StickingPlane::new(Vec3::ZERO, Vec3::Y), 0.0);
     assert!((v - 0.09 * 0.02).abs() < 1e-15, "tent {v}");
     // The same tent over a tilted sticking plane, rotated with it: same volume.
     let rot = glam::DQuat::from_rotation_z(0.3);
     let q = Soa::from_vec3(&p.to_vec3().iter().map(|v| rot * *v).collect::<Vec<_>>());
-    let v2 = volume(&g, &q, (Vec3::ZERO, rot * Vec3::Y), 0.0);
+    let v2 = volume(&g, &q, StickingPlane::new(Vec3::ZERO, rot * Vec3::Y), 0.0);
     assert!((v2 - v).abs() < 1e-15, "rotated {v2}");
 }
 
@@ -105,10 +105,15 @@ fn folded_cloth_cancels_overlapping_layers() {
     };
     let (h1, h2, h3) = (0.01, 0.013, 0.017);
     let p = fold([h1, h2, h3]);
-    let v = volume(&g, &p, (Vec3::ZERO, Vec3::Y), 0.0);
+    let v = volume(&g, &p, StickingPlane::new(Vec3::ZERO, Vec3::Y), 0.0);
     let exact = len * width * (h1 - h2 + h3);
     assert!((v - exact).abs() < 1e-16, "{v} vs {exact}");
-    let flat = volume(&g, &fold([h1; 3]), (Vec3::ZERO, Vec3::Y), 0.0);
+    let flat = volume(
+        &g,
+        &fold([h1; 3]),
+        StickingPlane::new(Vec3::ZERO, Vec3::Y),
+        0.0,
+    );
     assert!((flat - len * width * h1).abs() < 1e-16, "{flat}");
 }
 

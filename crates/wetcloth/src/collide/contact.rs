@@ -10,7 +10,7 @@
 //! otherwise it slides with the kinetic-friction deceleration. On a slope of angle theta this
 //! gives exactly `a = g (sin theta - mu cos theta)`.
 
-use crate::collider::Collider;
+use super::Collider;
 use crate::math::{Real, Vec3};
 
 /// Pushes the particle sphere (radius `radius`, m) predicted at `x` out of every collider and

@@ -12,8 +12,8 @@
 //! Grid neighbours closer at rest than the diameter (a very fine cloth) are kept at their rest
 //! distance instead: they are not pushed apart by the cloth's own tessellation.
 
-use crate::cloth::Grid;
 use crate::math::{Real, Soa, Vec3};
+use crate::model::Grid;
 use rayon::prelude::*;
 
 /// The skin of the neighbour lists, as a fraction of the particle diameter.

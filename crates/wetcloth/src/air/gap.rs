@@ -1,6 +1,4 @@
-//! The trapped air: bubble volume (thesis 3.5, eq. 3.10) and Boyle's law (3.4, eq. 3.8-3.9).
-//!
-//! # Volume
+//! The gap between the cloth and its sticking surface: the bubble volume (thesis 3.5, eq. 3.10).
 //!
 //! `v = sum_t (U . N_t) A_t h_t` over all cloth triangles: `U` the sticking plane's unit normal,
 //! `N_t` and `A_t` the triangle's unit normal and area, `h_t` the mean height of its vertices
@@ -13,17 +11,28 @@
 //! Heights are measured from the plane to the *particle centres* minus the particle radius:
 //! a cloth resting flat on the plane, its particle spheres touching it, encloses no air.
 //!
-//! # Pressure
-//!
-//! Boyle: `P_b v = P_a v0 = K`, with `v0` the trapped air at atmospheric pressure. The volume is
-//! floored at [`MIN_GAP`] times the cloth's area so a bubble squeezed flat gives a large finite
-//! pressure instead of a division by zero.
+//! [`prism_volume`] and [`volume`] are the readable reference; the step measures the same sum
+//! with `cell_volume6`, written to vectorise over a row of cells, inside its fused pass.
 
-use crate::cloth::Grid;
 use crate::math::{Real, Soa, Vec3};
+use crate::model::Grid;
 
-/// Smallest mean gap used in Boyle's law, m (1 micrometre).
-pub const MIN_GAP: Real = 1e-6;
+/// The sticking surface the gap is measured against: a plane through `point` with unit normal
+/// `up` (out of the solid, towards the cloth).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StickingPlane {
+    /// A point of the plane, m.
+    pub point: Vec3,
+    /// Unit normal, out of the solid.
+    pub up: Vec3,
+}
+
+impl StickingPlane {
+    /// The plane through `point` (m) with unit normal `up`.
+    pub fn new(point: Vec3, up: Vec3) -> Self {
+        Self { point, up }
+    }
+}
 
 /// Signed volume of the prism between triangle `(a, b, c)` and the plane (eq. 3.10, one term):
 /// its area projected along `up` times the mean height of its vertices. `ha, hb, hc` are the
@@ -36,8 +45,8 @@ pub fn prism_volume(a: Vec3, b: Vec3, c: Vec3, ha: Real, hb: Real, hc: Real, up:
 }
 
 /// Eq. 3.10 summed over the two triangles of every cell between rows `j` and `j + 1`.
-pub fn row_volume(grid: &Grid, p: &Soa, j: usize, plane: (Vec3, Vec3), offset: Real) -> Real {
-    let (origin, up) = plane;
+pub fn row_volume(grid: &Grid, p: &Soa, j: usize, plane: StickingPlane, offset: Real) -> Real {
+    let (origin, up) = (plane.point, plane.up);
     let h = |k: usize| (p.get(k) - origin).dot(up) - offset;
     let mut v = 0.0;
     for i in 0..grid.nx - 1 {
@@ -54,32 +63,29 @@ pub fn row_volume(grid: &Grid, p: &Soa, j: usize, plane: (Vec3, Vec3), offset: R
 }
 
 /// Bubble volume of the whole cloth (eq. 3.10), m^3, summed row by row in a fixed order.
-pub fn volume(grid: &Grid, p: &Soa, plane: (Vec3, Vec3), offset: Real) -> Real {
+pub fn volume(grid: &Grid, p: &Soa, plane: StickingPlane, offset: Real) -> Real {
     (0..grid.nz - 1)
         .map(|j| row_volume(grid, p, j, plane, offset))
         .sum()
 }
 
-/// Bubble pressure by Boyle's law (eq. 3.9), Pa: `P_a v0 / v`, with `v` floored at
-/// `MIN_GAP * area` (`area` the cloth's rest area, m^2).
-#[inline]
-pub fn boyle_pressure(atmosphere: Real, trapped_air: Real, volume: Real, area: Real) -> Real {
-    atmosphere * trapped_air / volume.max(MIN_GAP * area)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn boyle_keeps_pv_constant() {
-        for v in [1e-4, 4e-4, 1e-3] {
-            let p = boyle_pressure(101_325.0, 4e-4, v, 0.09);
-            assert!((p * v - 101_325.0 * 4e-4).abs() < 1e-9);
-        }
-        // No trapped air: a vacuum whatever the volume.
-        assert_eq!(boyle_pressure(101_325.0, 0.0, 1e-3, 0.09), 0.0);
-        // A squeezed bubble stays finite.
-        assert!(boyle_pressure(101_325.0, 4e-4, 0.0, 0.09).is_finite());
-    }
+/// Six times eq. 3.10 for the cell with corners `a = (i, j)`, `b = (i+1, j)`, `c = (i+1, j+1)`,
+/// `d = (i, j+1)`, split as in [`Grid::triangles`] into `(a, c, b)` and `(a, d, c)`:
+/// `U.((c-a) x (b-a)) (ha+hc+hb) + U.((d-a) x (c-a)) (ha+hd+hc)`, with the corner heights `h`
+/// above the plane (m) and the edges `eb = b - a`, `ec = c - a`, `ed = d - a` (m). Scalar
+/// arguments, so a loop over a row of cells that calls it vectorises.
+#[inline(always)]
+pub(crate) fn cell_volume6(
+    [ux, uy, uz]: [Real; 3],
+    [ha, hb, hc, hd]: [Real; 4],
+    [ebx, eby, ebz]: [Real; 3],
+    [ecx, ecy, ecz]: [Real; 3],
+    [edx, edy, edz]: [Real; 3],
+) -> Real {
+    // U . (c x b) and U . (d x c).
+    let acb =
+        ux * (ecy * ebz - ecz * eby) + uy * (ecz * ebx - ecx * ebz) + uz * (ecx * eby - ecy * ebx);
+    let adc =
+        ux * (edy * ecz - edz * ecy) + uy * (edz * ecx - edx * ecz) + uz * (edx * ecy - edy * ecx);
+    acb * (ha + hc + hb) + adc * (ha + hd + hc)
 }

@@ -7,8 +7,8 @@
 //! computed Jacobi-style from the same positions and then applied, so each pass is independent
 //! of order and thread count; a few passes settle chains of over-stretched springs.
 
-use crate::cloth::{Grid, STENCIL};
 use crate::math::{Real, Soa, Vec3};
+use crate::model::{Grid, STENCIL};
 
 /// Applies `iterations` Jacobi passes of the strain limiter with relative limit `limit` to `p`.
 /// `scratch` must hold as many vectors as `p`. Returns the number of springs corrected in the

@@ -119,6 +119,18 @@ impl Grid {
         (u * u + v * v).sqrt()
     }
 
+    /// The border particles in order around the grid (each once): along row 0, up the last
+    /// column, back along the last row, down the first column.
+    pub fn border_loop(&self) -> Vec<u32> {
+        let (nx, nz) = (self.nx, self.nz);
+        let mut b = Vec::with_capacity(2 * (nx + nz));
+        b.extend((0..nx).map(|i| self.index(i, 0)));
+        b.extend((1..nz).map(|j| self.index(nx - 1, j)));
+        b.extend((0..nx - 1).rev().map(|i| self.index(i, nz - 1)));
+        b.extend((1..nz - 1).rev().map(|j| self.index(0, j)));
+        b.into_iter().map(|k| k as u32).collect()
+    }
+
     /// Flat rest positions, centred on `centre`, in the xz plane.
     pub fn rest_positions(&self, centre: Vec3) -> Soa {
         let mut p = Soa::zeros(self.len());

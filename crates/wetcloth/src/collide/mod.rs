@@ -1,0 +1,242 @@
+//! Colliders and collisions (thesis 3.1, 3.3): the shapes the cloth's particle spheres rest on,
+//! the contact response, and self-collision.
+//!
+//! A shape only answers "how far is the surface and which way is out" ([`Collider::distance`])
+//! and "what does it look like" ([`Collider::surface`], for renderers); the contact response
+//! (normal force and Coulomb friction, eq. 3.4-3.5) lives in [`contact`] and is the same for
+//! every shape. A new shape is one file here with its distance, validation and surface, and one
+//! variant of [`Shape`]: the step, the renderer and the viewer need nothing else.
+//!
+//! | file | contents |
+//! |---|---|
+//! | `plane.rs` | [`Plane`]: infinite plane; the vectorised row contact the step uses for planes |
+//! | `sphere.rs` | [`Sphere`]: solid sphere |
+//! | `cuboid.rs` | [`Cuboid`]: solid axis-aligned box |
+//! | `contact.rs` | normal force and friction as a position correction, for any shape |
+//! | `self_collision.rs` | particle-particle collision: hashed grid, skinned lists, Jacobi |
+
+pub mod contact;
+pub mod cuboid;
+pub mod plane;
+pub mod self_collision;
+pub mod sphere;
+
+pub use cuboid::Cuboid;
+pub use plane::Plane;
+pub use sphere::Sphere;
+
+use crate::error::ConfigError;
+use crate::math::{Real, Vec3};
+
+/// A collider shape.
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(tag = "shape", rename_all = "lowercase")
+)]
+pub enum Shape {
+    /// Infinite plane (scene `shape = "plane"`).
+    Plane(Plane),
+    /// Solid sphere (scene `shape = "sphere"`).
+    Sphere(Sphere),
+    /// Solid axis-aligned box (scene `shape = "box"`).
+    Box(Cuboid),
+}
+
+/// A collider: a shape with a Coulomb friction coefficient.
+///
+/// Not `Copy`: shapes may own data (a triangle mesh cannot be copied for free).
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Collider {
+    /// The shape.
+    #[cfg_attr(feature = "serde", serde(flatten))]
+    pub shape: Shape,
+    /// Coulomb friction coefficient mu, one for static and kinetic friction (thesis eq. 3.5).
+    /// Default 0.6; range [0, 10].
+    pub friction: Real,
+}
+
+/// What a collider looks like, for renderers: an infinite plane, or a triangle mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Surface {
+    /// An infinite plane through `point` (m) with unit `normal`, out of the solid.
+    Plane {
+        /// A point of the plane, m.
+        point: Vec3,
+        /// Unit normal, out of the solid.
+        normal: Vec3,
+    },
+    /// A closed triangle mesh.
+    Mesh(SurfaceMesh),
+}
+
+/// A triangle mesh for drawing: positions (m) and unit normals per vertex, triangles wound
+/// counter-clockwise seen from outside (`(b - a) x (c - a)` points out).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfaceMesh {
+    /// Vertex positions, m.
+    pub positions: Vec<Vec3>,
+    /// Vertex normals (unit, outwards).
+    pub normals: Vec<Vec3>,
+    /// Triangles as indices into `positions`.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Collider {
+    /// A plane through `point` with normal `normal` (normalised here).
+    pub fn plane(point: Vec3, normal: Vec3, friction: Real) -> Self {
+        Self {
+            shape: Shape::Plane(Plane {
+                point,
+                normal: normal.normalize_or_zero(),
+            }),
+            friction,
+        }
+    }
+
+    /// A solid sphere.
+    pub fn sphere(center: Vec3, radius: Real, friction: Real) -> Self {
+        Self {
+            shape: Shape::Sphere(Sphere { center, radius }),
+            friction,
+        }
+    }
+
+    /// A solid axis-aligned box with half extents `half_extents` (m).
+    pub fn cuboid(center: Vec3, half_extents: Vec3, friction: Real) -> Self {
+        Self {
+            shape: Shape::Box(Cuboid {
+                center,
+                half_extents,
+            }),
+            friction,
+        }
+    }
+
+    /// The plane, if this collider is one.
+    pub fn as_plane(&self) -> Option<&Plane> {
+        match &self.shape {
+            Shape::Plane(p) => Some(p),
+            _ => None,
+        }
+    }
+
+    /// The scene-file name of the shape (`"plane"`, `"sphere"`, `"box"`).
+    pub fn shape_name(&self) -> &'static str {
+        match self.shape {
+            Shape::Plane(_) => "plane",
+            Shape::Sphere(_) => "sphere",
+            Shape::Box(_) => "box",
+        }
+    }
+
+    /// Signed distance from `p` to the surface (m, negative inside) and the outward unit normal
+    /// at the closest surface point.
+    #[inline]
+    pub fn distance(&self, p: Vec3) -> (Real, Vec3) {
+        match &self.shape {
+            Shape::Plane(s) => s.distance(p),
+            Shape::Sphere(s) => s.distance(p),
+            Shape::Box(s) => s.distance(p),
+        }
+    }
+
+    /// What the collider looks like (for renderers and viewers).
+    pub fn surface(&self) -> Surface {
+        match &self.shape {
+            Shape::Plane(s) => Surface::Plane {
+                point: s.point,
+                normal: s.normal,
+            },
+            Shape::Sphere(s) => Surface::Mesh(s.surface_mesh()),
+            Shape::Box(s) => Surface::Mesh(s.surface_mesh()),
+        }
+    }
+
+    /// Checks the collider's parameters; `index` names it in messages (`collider[index].key`).
+    pub fn validate(&self, index: usize) -> Result<(), ConfigError> {
+        let key = |k: &str| format!("collider[{index}].{k}");
+        if !(self.friction.is_finite() && (0.0..=10.0).contains(&self.friction)) {
+            return Err(ConfigError::OutOfRange {
+                key: key("friction"),
+                value: self.friction.to_string(),
+                range: "[0, 10]".into(),
+            });
+        }
+        match &self.shape {
+            Shape::Plane(s) => s.validate(&key),
+            Shape::Sphere(s) => s.validate(&key),
+            Shape::Box(s) => s.validate(&key),
+        }
+    }
+}
+
+/// `Err` naming `key` unless `v` is finite.
+pub(crate) fn require_finite(key: String, v: Vec3) -> Result<(), ConfigError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            key,
+            message: "must be finite".into(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn signed_distances_match_the_geometry() {
+        let plane = Collider::plane(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 2.0, 0.0), 0.5);
+        assert_eq!(plane.distance(Vec3::new(3.0, 1.5, -2.0)), (0.5, Vec3::Y));
+        let s = Collider::sphere(Vec3::ZERO, 1.0, 0.5);
+        let (d, n) = s.distance(Vec3::new(0.0, 0.0, 3.0));
+        assert_eq!((d, n), (2.0, Vec3::Z));
+        let b = Collider::cuboid(Vec3::ZERO, Vec3::new(1.0, 2.0, 3.0), 0.0);
+        assert_eq!(b.distance(Vec3::new(0.0, 2.5, 0.0)), (0.5, Vec3::Y));
+        let (d, n) = b.distance(Vec3::new(0.9, 0.0, 0.0));
+        assert!((d + 0.1).abs() < 1e-12 && n == Vec3::X);
+        let (d, n) = b.distance(Vec3::new(4.0, 6.0, 0.0));
+        assert!((d - 5.0).abs() < 1e-12 && (n - Vec3::new(0.6, 0.8, 0.0)).length() < 1e-12);
+    }
+
+    /// Every surface mesh lies on its shape (distance 0 at each vertex), its normals agree with
+    /// the shape's, and its triangles face outwards.
+    #[test]
+    fn surface_meshes_lie_on_their_shapes_and_face_out() {
+        for c in [
+            Collider::sphere(Vec3::new(0.1, 0.2, -0.3), 0.25, 0.5),
+            Collider::cuboid(Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.5, 0.25, 1.0), 0.5),
+        ] {
+            let Surface::Mesh(m) = c.surface() else {
+                panic!("{} has no mesh", c.shape_name())
+            };
+            assert!(!m.triangles.is_empty());
+            assert_eq!(m.positions.len(), m.normals.len());
+            for (p, n) in m.positions.iter().zip(&m.normals) {
+                let (d, _) = c.distance(*p);
+                assert!(d.abs() < 1e-12, "{}: vertex {p} at {d}", c.shape_name());
+                let (_, out) = c.distance(*p + *n * 1e-3);
+                assert!(out.dot(*n) > 0.7, "{}: normal {n} vs {out}", c.shape_name());
+            }
+            for [a, b, t] in &m.triangles {
+                let [a, b, t] = [*a, *b, *t].map(|k| m.positions[k as usize]);
+                let face = (b - a).cross(t - a);
+                if face.length() < 1e-15 {
+                    continue; // a sliver at a sphere's pole
+                }
+                let centre = (a + b + t) / 3.0;
+                let (_, out) = c.distance(centre + face.normalize() * 1e-3);
+                assert!(
+                    face.dot(out) > 0.0,
+                    "{}: a triangle faces in",
+                    c.shape_name()
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,76 @@
+//! The user's input (thesis 3.2 step 1, fig. 4.1): grabs and their targets, and the air
+//! switch (the demo's button 1).
+
+mod grab;
+
+pub use grab::{Grab, GrabKey, GrabMotion, GrabSpec};
+
+use crate::math::{Real, Soa, Vec3};
+
+/// What the user does to the cloth.
+#[derive(Clone, Debug)]
+pub struct Control {
+    /// The grabs (the hand, F_u).
+    pub grabs: Vec<Grab>,
+    /// Whether the pressure force acts.
+    pub air_enabled: bool,
+    /// Each grab's target for the step being taken (`None` while the grab is inactive).
+    pub(crate) targets: Vec<Option<Vec3>>,
+    /// Whether a grab holds each particle.
+    pub(crate) held: Vec<bool>,
+}
+
+impl Control {
+    /// No grabs yet for `n` particles.
+    pub fn new(n: usize, air_enabled: bool) -> Self {
+        Self {
+            grabs: Vec::new(),
+            air_enabled,
+            targets: Vec::new(),
+            held: vec![false; n],
+        }
+    }
+
+    /// Phase 1 of a step (thesis 3.2 step 1): every grab's target at `t_next` (s) given the
+    /// current positions `x`, for a step of `dt` s. Grabs release their particles until they
+    /// are placed again ([`Control::hold_targets`]).
+    pub(crate) fn begin_step(&mut self, x: &Soa, t_next: Real, dt: Real) {
+        self.targets.clear();
+        for g in &mut self.grabs {
+            self.held[g.particle] = false;
+        }
+        for g in &mut self.grabs {
+            let target = g.target(t_next, x.get(g.particle), dt);
+            self.targets.push(target);
+        }
+    }
+
+    /// Marks the particles that active grabs hold.
+    pub(crate) fn hold_targets(&mut self) {
+        for (g, t) in self.grabs.iter().zip(&self.targets) {
+            if t.is_some() {
+                self.held[g.particle] = true;
+            }
+        }
+    }
+
+    /// The active grabs with their targets for this step.
+    pub(crate) fn active(&self) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+        self.grabs
+            .iter()
+            .zip(&self.targets)
+            .filter_map(|(g, t)| t.map(|t| (g.particle, t)))
+    }
+
+    /// Removes grab `index`, releasing its particle.
+    pub(crate) fn remove(&mut self, index: usize) -> Grab {
+        let g = self.grabs.remove(index);
+        self.held[g.particle] = false;
+        g
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.held.capacity() + self.targets.capacity() * std::mem::size_of::<Option<Vec3>>()
+    }
+}

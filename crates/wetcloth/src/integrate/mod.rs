@@ -1,0 +1,78 @@
+//! Time integrators: one file per integrator, all behind one shape,
+//! `step(model, state, control, air, dt)`.
+//!
+//! An integrator takes the state at `t` to `t + dt` under the forces of [`crate::forces`] and
+//! the air's load, resolves contacts with the colliders (eq. 3.4-3.5), and places the grabbed
+//! particles on their targets, recording the hand's force (thesis 3.2 steps 2-4). Position
+//! corrections (strain limiting, self-collision) and the air's bookkeeping come after it, in
+//! [`crate::Simulation::step`].
+//!
+//! | file | integrator | scene name |
+//! |---|---|---|
+//! | `verlet.rs` | position Verlet, thesis eq. 3.1 (explicit) | `"verlet"` |
+//!
+//! A new integrator is a new file here, a variant of [`crate::params::Integrator`] (its scene
+//! name) and of `IntegratorState`; it must pass the scenario table of `tests/physics.rs`.
+
+pub(crate) mod verlet;
+
+use crate::air::AirLoad;
+use crate::control::Control;
+use crate::math::{Real, Soa};
+use crate::measure::Measures;
+use crate::model::Model;
+use crate::params::Integrator;
+use crate::state::State;
+
+/// What the step asks an integrator to measure while it has the new positions at hand.
+pub(crate) struct Fused<'a> {
+    /// Positions the self-collision lists were built at, if any: the integrator returns the
+    /// largest squared distance (m^2) of a new position from them.
+    pub reference: Option<&'a Soa>,
+    /// The cell measures of the new state (volume, stretch, finiteness), every row valid on
+    /// return.
+    pub measures: &'a mut Measures,
+    /// Rows per task when the pass is split over the thread pool, `None` on the calling thread.
+    pub rows_per_task: Option<usize>,
+}
+
+/// An integrator and its scratch.
+#[derive(Clone, Debug)]
+pub(crate) enum IntegratorState {
+    /// Position Verlet.
+    Verlet(verlet::Verlet),
+}
+
+impl IntegratorState {
+    /// The integrator `kind` for `model`.
+    pub fn new(kind: Integrator, model: &Model) -> Self {
+        match kind {
+            Integrator::Verlet => {
+                IntegratorState::Verlet(verlet::Verlet::new(model.grid.len(), model.grid.nx))
+            }
+        }
+    }
+
+    /// One step of `dt` s (see the module docs). Returns the largest squared distance (m^2) of
+    /// a new position from `fused.reference`.
+    pub fn step(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        control: &mut Control,
+        air: AirLoad,
+        dt: Real,
+        fused: Fused<'_>,
+    ) -> Real {
+        match self {
+            IntegratorState::Verlet(v) => v.step(model, state, control, air, dt, fused),
+        }
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        match self {
+            IntegratorState::Verlet(v) => v.heap_bytes(),
+        }
+    }
+}

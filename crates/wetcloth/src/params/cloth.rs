@@ -1,0 +1,70 @@
+//! `[cloth]`: the cloth's size, resolution, material and collision sphere.
+
+use crate::math::{Real, Vec3};
+
+/// The cloth (`[cloth]` in a scene file): a square grid of particles, flat in the xz plane.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClothParams {
+    /// Extent along x and z, m. Default (0.30, 0.30) (thesis ch. 4); each in [1e-3, 1e3].
+    pub size: [Real; 2],
+    /// Particles along x and z. Default (50, 50) (thesis: 2500 particles); each in [2, 4096].
+    pub resolution: [usize; 2],
+    /// Centre of the cloth at t = 0, m. Default (0, 0.002, 0).
+    pub position: Vec3,
+    /// Mass of the whole cloth, kg, shared equally by the particles. Default 0.02; range
+    /// [1e-6, 1e4].
+    pub mass: Real,
+    /// Stiffness of the structural springs (4 grid neighbours), N/m. Default 500; range
+    /// [0, 1e7]. With the shear stiffness and the particle mass it sets the explicit stability
+    /// limit of the time step, see [`crate::SimConfig::stable_time_step`].
+    pub structural_stiffness: Real,
+    /// Stiffness of the shear springs (4 diagonal neighbours), N/m. Default 125 (shear is
+    /// softer than the weave); range [0, 1e7].
+    pub shear_stiffness: Real,
+    /// Velocity damping rate, 1/s: every particle feels `-damping * m * v`, so free motion decays
+    /// as `exp(-damping * t)`. Default 0 (none); range [0, 1e4].
+    pub damping: Real,
+    /// Cloth thickness, m. Default 0.001; range [0, 0.1].
+    pub thickness: Real,
+    /// Collision margin added to the thickness, m: particles are spheres of diameter
+    /// `thickness + collision_margin` (thesis 3.1). Default 0.0005; range [0, 0.1].
+    pub collision_margin: Real,
+    /// Whether particles collide with each other (thesis 3.1). Default true.
+    pub self_collision: bool,
+    /// Provot strain limit: the largest relative stretch allowed for a structural or shear
+    /// spring (0.1 = 10 %); 0 turns it off. Default 0 (off, as in the thesis); range [0, 10].
+    pub strain_limit: Real,
+    /// Jacobi iterations of the strain limiter per step. Default 4; range [1, 100].
+    pub strain_limit_iterations: usize,
+}
+
+impl Default for ClothParams {
+    fn default() -> Self {
+        Self {
+            size: [0.30, 0.30],
+            resolution: [50, 50],
+            position: Vec3::new(0.0, 0.002, 0.0),
+            mass: 0.02,
+            structural_stiffness: 500.0,
+            shear_stiffness: 125.0,
+            damping: 0.0,
+            thickness: 0.001,
+            collision_margin: 0.0005,
+            self_collision: true,
+            strain_limit: 0.0,
+            strain_limit_iterations: 4,
+        }
+    }
+}
+
+impl ClothParams {
+    /// Radius of a particle's collision sphere, m: `(thickness + collision_margin) / 2`.
+    pub fn particle_radius(&self) -> Real {
+        0.5 * (self.thickness + self.collision_margin)
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.resolution[0] * self.resolution[1]
+    }
+}

@@ -1,0 +1,57 @@
+//! `[simulation]`: time stepping, the integrator and gravity.
+
+use crate::math::{Real, Vec3};
+
+/// Time stepping and global fields (`[simulation]` in a scene file).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulationParams {
+    /// Simulated time to run, s. Default 3.0; range (0, 1e4]. Used by drivers, not by `step`.
+    pub duration: Real,
+    /// Integration step, s. Default 1/12000 (the thesis' value, 8.333e-5); range [1e-7, 1e-2].
+    pub time_step: Real,
+    /// Time integrator. Default [`Integrator::Verlet`] (thesis eq. 3.1).
+    pub integrator: Integrator,
+    /// Frames (and metrics rows) written per simulated second, 1/s. Default 60; range [1, 10000].
+    /// Used by drivers.
+    pub frame_rate: Real,
+    /// Gravitational acceleration, m/s^2. Default (0, -9.8, 0) (thesis eq. 3.3); each component
+    /// in [-1000, 1000].
+    pub gravity: Vec3,
+}
+
+impl Default for SimulationParams {
+    fn default() -> Self {
+        Self {
+            duration: 3.0,
+            time_step: 1.0 / 12000.0,
+            integrator: Integrator::Verlet,
+            frame_rate: 60.0,
+            gravity: Vec3::new(0.0, -9.8, 0.0),
+        }
+    }
+}
+
+/// The time integrator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Integrator {
+    /// Position Verlet, thesis eq. 3.1: `x(t+dt) = 2 x(t) - x(t-dt) + F/m dt^2`.
+    #[default]
+    Verlet,
+}
+
+impl Integrator {
+    /// All integrators, for tests that run one scenario table over each.
+    pub const ALL: [Integrator; 1] = [Integrator::Verlet];
+
+    /// The scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Verlet => "verlet",
+        }
+    }
+
+    /// Parses a scene-file name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|i| i.name() == s)
+    }
+}
