@@ -37,6 +37,7 @@ pub const AIR: &[&str] = &[
     "trapped_air",
     "leak_conductance",
     "pressure_solve",
+    "pressure_force",
 ];
 /// Keys of a `[[collider]]`, all shapes together.
 pub const COLLIDER: &[&str] = &[

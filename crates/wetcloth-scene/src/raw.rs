@@ -9,8 +9,8 @@ use toml::Spanned;
 use toml::de::DeTable;
 use wetcloth::collide::{Cuboid, Plane, Sphere};
 use wetcloth::{
-    AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator, PressureSolve,
-    Real, Shape, SimConfig, SimulationParams, Vec3,
+    AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator, PressureForce,
+    PressureSolve, Real, Shape, SimConfig, SimulationParams, Vec3,
 };
 
 /// A fixed-length array that, unlike `[T; N]`, refuses extra elements.
@@ -73,6 +73,7 @@ struct RawAir {
     trapped_air: Option<Real>,
     leak_conductance: Option<Real>,
     pressure_solve: Option<Spanned<String>>,
+    pressure_force: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -302,6 +303,16 @@ fn convert(
                 "pressure solve",
                 PressureSolve::ALL,
                 PressureSolve::name,
+            )?;
+        }
+        if let Some(p) = a.pressure_force {
+            air.pressure_force = named(
+                cx,
+                &p,
+                "air.pressure_force",
+                "pressure force",
+                PressureForce::ALL,
+                PressureForce::name,
             )?;
         }
     }

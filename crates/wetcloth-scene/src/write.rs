@@ -87,6 +87,7 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     let _ = writeln!(o, "trapped_air = {}  # m^3", f(a.trapped_air));
     let _ = writeln!(o, "leak_conductance = {}  # m^2/s", f(a.leak_conductance));
     let _ = writeln!(o, "pressure_solve = {}", quote(a.pressure_solve.name()));
+    let _ = writeln!(o, "pressure_force = {}", quote(a.pressure_force.name()));
     for col in &config.colliders {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[collider]]");

@@ -1,4 +1,4 @@
-//! Errors of the core: invalid parameters, and steps that blow up.
+//! Errors of the core: invalid parameters, and steps that blow up or go unphysical.
 
 use crate::math::Real;
 
@@ -58,5 +58,34 @@ pub enum StepError {
         ratio: Real,
         /// The limit that was passed.
         limit: Real,
+    },
+    /// The bubble volume went more negative than any folded cloth can make it.
+    #[error(
+        "the simulation went unphysical at t = {time:.6} s: the bubble volume is \
+         {volume:.3e} m^3 (below {floor:.3e}): the cloth has passed through the sticking surface \
+         or through itself under the pressure force; try a smaller time_step, a finer cloth \
+         (resolution) or more trapped_air"
+    )]
+    NegativeVolume {
+        /// Simulated time, s.
+        time: Real,
+        /// The bubble volume, m^3.
+        volume: Real,
+        /// The most negative volume a cloth folded flat can have, m^3 (`-2 r A`).
+        floor: Real,
+    },
+    /// The cloth gained far more energy than anything did work on it.
+    #[error(
+        "the simulation went unphysical at t = {time:.6} s: the cloth gained {gain:.3e} J of \
+         energy while the hands and the air can account for at most {allowance:.3e} J; try a \
+         smaller time_step or a finer cloth (resolution)"
+    )]
+    EnergyGain {
+        /// Simulated time, s.
+        time: Real,
+        /// Mechanical energy gained since the start, J.
+        gain: Real,
+        /// The most the hands and the air allow, J.
+        allowance: Real,
     },
 }

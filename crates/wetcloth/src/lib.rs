@@ -88,6 +88,8 @@ pub use error::{ConfigError, StepError};
 pub use math::{Real, Soa, Vec3};
 pub use metrics::FrameMetrics;
 pub use model::{Grid, Model};
-pub use params::{AirParams, ClothParams, Integrator, PressureSolve, SimConfig, SimulationParams};
+pub use params::{
+    AirParams, ClothParams, Integrator, PressureForce, PressureSolve, SimConfig, SimulationParams,
+};
 pub use sim::Simulation;
 pub use state::{Motion, State};

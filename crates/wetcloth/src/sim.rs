@@ -1,7 +1,7 @@
 //! The simulation and its step (thesis 3.2, fig. 3.4).
 
 use crate::air::{AirModel, Bubble};
-use crate::checks;
+use crate::checks::{self, EnergyAudit};
 use crate::collide::contact;
 use crate::collide::self_collision::SelfCollision;
 use crate::constraints::strain_limit;
@@ -35,8 +35,10 @@ pub struct Simulation {
     self_collision: Option<SelfCollision>,
     /// The cell measures (volume, stretch, finiteness) of the current state.
     measures: Measures,
-    /// Scratch of the position corrections.
-    corrections: Soa,
+    /// Scratch of the strain limiter.
+    strain: strain_limit::Scratch,
+    /// The energy budget of the blow-up checks.
+    audit: EnergyAudit,
 }
 
 impl Simulation {
@@ -66,7 +68,8 @@ impl Simulation {
                 .self_collision
                 .then(|| SelfCollision::new(n, 2.0 * model.radius)),
             measures: Measures::new(model.grid.nz),
-            corrections: Soa::zeros(n),
+            strain: strain_limit::Scratch::default(),
+            audit: EnergyAudit::default(),
             model,
             config,
         };
@@ -76,6 +79,7 @@ impl Simulation {
                 message: e.to_string(),
             })?;
         sim.settle_air_history();
+        sim.restart_audit();
         Ok(sim)
     }
 
@@ -242,7 +246,7 @@ impl Simulation {
             + self.control.heap_bytes()
             + self.integrator.heap_bytes()
             + self.measures.heap_bytes()
-            + self.corrections.heap_bytes()
+            + self.strain.heap_bytes()
             + self
                 .self_collision
                 .as_ref()
@@ -309,7 +313,18 @@ impl Simulation {
         }
         self.remeasure_and_check()?;
         self.settle_air_history();
+        self.restart_audit();
         Ok(())
+    }
+
+    /// Starts the energy budget from the current state.
+    fn restart_audit(&mut self) {
+        self.audit = EnergyAudit::new(
+            &self.model,
+            &self.state,
+            self.time_step(),
+            self.control.hand_work,
+        );
     }
 
     /// Forgets the air's history: the previous volume becomes the current one.
@@ -344,8 +359,9 @@ impl Simulation {
     ///    eq. 3.4-3.5) and the hand placing grabbed particles (3.2 step 3), in one fused pass
     ///    that also measures the new state ([`crate::integrate`]).
     /// 4. **Leak**: air through the lifted border during the step ([`crate::air::leak`]).
-    /// 5. **Corrections**: Provot strain limiting, self-collision (3.1), and anything they moved
-    ///    pushed back out of the colliders ([`crate::constraints`], [`crate::collide`]).
+    /// 5. **Corrections**: self-collision (3.1) with anything it moved pushed back out of the
+    ///    colliders, then Provot strain limiting, last so that the limit holds at the end of the
+    ///    step ([`crate::collide`], [`crate::constraints`]).
     /// 6. **Measure and check** (3.5): the new bubble volume (eq. 3.10) and the blow-up checks
     ///    ([`crate::checks`]); measured in phase 3 unless phase 5 moved particles.
     pub fn step(&mut self) -> Result<(), StepError> {
@@ -369,7 +385,7 @@ impl Simulation {
             .self_collision
             .as_ref()
             .and_then(SelfCollision::reference);
-        let moved2 = self.integrator.step(
+        let (moved2, solved) = self.integrator.step(
             &self.model,
             &mut self.state,
             &mut self.control,
@@ -381,6 +397,10 @@ impl Simulation {
                 rows_per_task: exec::row_split(self.model.grid.nx, self.model.grid.nz),
             },
         );
+
+        if let Some(pressure) = solved {
+            self.air.set_applied_pressure(pressure);
+        }
 
         // 4. Leak.
         self.air.leak(
@@ -399,10 +419,32 @@ impl Simulation {
         if corrected {
             self.remeasure_all();
         }
-        self.finish_measures()
+        self.finish_measures()?;
+        self.audit_energy()
     }
 
-    /// Phase 5: strain limiting, self-collision, and the collider re-projection; `moved2` is how
+    /// The checks of [`crate::checks`] beyond the measures: the sign of the bubble, and every
+    /// [`checks::AUDIT_INTERVAL`] steps the energy budget.
+    fn audit_energy(&mut self) -> Result<(), StepError> {
+        let time = self.time();
+        if self.control.air_enabled {
+            let b = self.air.bubble();
+            checks::check_volume(&self.model, b.volume, time)?;
+            let atmosphere = self.config.air.atmospheric_pressure;
+            let difference = (b.applied_pressure - atmosphere)
+                .abs()
+                .max((self.air_pressure() - atmosphere).abs());
+            self.audit.record_air(b.volume, difference);
+        }
+        if self.state.steps.is_multiple_of(checks::AUDIT_INTERVAL) {
+            let dt = self.time_step();
+            self.audit
+                .check(&self.model, &self.state, self.control.hand_work, dt, time)?;
+        }
+        Ok(())
+    }
+
+    /// Phase 5: self-collision and the collider re-projection, then strain limiting; `moved2` is how
     /// far (squared, m^2) the integrator moved particles from the self-collision lists'
     /// reference. Returns whether anything moved.
     fn correct(&mut self, moved2: Real) -> bool {
@@ -419,21 +461,8 @@ impl Simulation {
             }
         }
         let mut corrected = false;
-        let cloth = &self.config.cloth;
-        if cloth.strain_limit > 0.0 {
-            corrected |= strain_limit::limit_strain(
-                &model.grid,
-                &mut state.x,
-                &mut self.corrections,
-                &control.held,
-                cloth.strain_limit,
-                cloth.strain_limit_iterations,
-            ) > 0;
-        }
         if let Some(sc) = &mut self.self_collision {
-            // Strain limiting moves particles after the integrator: then measure again.
-            let moved = (!corrected).then_some(moved2);
-            corrected |= sc.solve_moved(&model.grid, &mut state.x, &control.held, moved) > 0;
+            corrected |= sc.solve_moved(&model.grid, &mut state.x, &control.held, Some(moved2)) > 0;
         }
         if corrected && !model.colliders.is_empty() {
             let (colliders, r, held) = (&model.colliders, model.radius, &control.held);
@@ -444,6 +473,22 @@ impl Simulation {
                     contact::project(colliders, p, r)
                 }
             });
+        }
+        // Strain limiting last, so the limit holds at the end of the step.
+        let cloth = &self.config.cloth;
+        if cloth.strain_limit > 0.0 {
+            corrected |= strain_limit::limit_strain(
+                &model.grid,
+                state,
+                &model.inv_mass,
+                &control.held,
+                cloth.strain_limit,
+                cloth.strain_limit_iterations,
+                &model.colliders,
+                model.radius,
+                &mut self.strain,
+            )
+            .corrected;
         }
         corrected
     }

@@ -30,8 +30,11 @@ use crate::state::State;
 /// The pressure the air puts on the cloth during one step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum AirLoad {
-    /// Every particle feels `(P_b - P_a) S N` with this `(P_b - P_a) S`, N (0: no force).
+    /// Every particle feels the pressure difference `P_b - P_a`, this many Pa (0: no force).
     Uniform(Real),
+    /// Every particle feels `(P_b - P_a) S N` with the pressure `P_b` of the state at the end
+    /// of the step, which the integrator solves from its coasting positions.
+    EndOfStep(bubble::EndOfStep),
 }
 
 /// The air model of a simulation.
@@ -64,10 +67,14 @@ impl AirModel {
         dt: Real,
     ) -> AirLoad {
         match self {
-            AirModel::Thesis(b) => {
-                let p = b.begin_step(air, model, state, control, dt);
-                AirLoad::Uniform((p - air.atmospheric_pressure) * model.area_per_particle)
-            }
+            AirModel::Thesis(b) => b.begin_step(air, model, state, control, dt),
+        }
+    }
+
+    /// Records the pressure the integrator solved for an [`AirLoad::EndOfStep`], Pa.
+    pub(crate) fn set_applied_pressure(&mut self, pressure: Real) {
+        match self {
+            AirModel::Thesis(b) => b.set_applied_pressure(pressure),
         }
     }
 

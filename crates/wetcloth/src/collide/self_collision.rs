@@ -204,6 +204,11 @@ impl SelfCollision {
         fixed: &[bool],
         moved2: Option<Real>,
     ) -> usize {
+        // Particles of no size never overlap (and a hash grid of cells of no size would put
+        // every particle in one bucket).
+        if self.diameter <= 0.0 {
+            return 0;
+        }
         let rebuild = match (moved2, self.reference()) {
             (Some(m), Some(_)) if self.reference.len() == p.len() => {
                 m > (0.5 * self.skin) * (0.5 * self.skin)

@@ -18,6 +18,8 @@ pub struct Control {
     pub(crate) targets: Vec<Option<Vec3>>,
     /// Whether a grab holds each particle.
     pub(crate) held: Vec<bool>,
+    /// Summed magnitude of the work the hands have done on the cloth since t = 0, J.
+    pub(crate) hand_work: Real,
 }
 
 impl Control {
@@ -28,12 +30,13 @@ impl Control {
             air_enabled,
             targets: Vec::new(),
             held: vec![false; n],
+            hand_work: 0.0,
         }
     }
 
     /// Phase 1 of a step (thesis 3.2 step 1): every grab's target at `t_next` (s) given the
-    /// current positions `x`, for a step of `dt` s. Grabs release their particles until they
-    /// are placed again ([`Control::hold_targets`]).
+    /// current positions `x`, for a step of `dt` s, and which particles the hands hold during
+    /// the step (every phase after this one, the air's prediction included, sees them held).
     pub(crate) fn begin_step(&mut self, x: &Soa, t_next: Real, dt: Real) {
         self.targets.clear();
         for g in &mut self.grabs {
@@ -43,10 +46,6 @@ impl Control {
             let target = g.target(t_next, x.get(g.particle), dt);
             self.targets.push(target);
         }
-    }
-
-    /// Marks the particles that active grabs hold.
-    pub(crate) fn hold_targets(&mut self) {
         for (g, t) in self.grabs.iter().zip(&self.targets) {
             if t.is_some() {
                 self.held[g.particle] = true;
@@ -60,6 +59,11 @@ impl Control {
             .iter()
             .zip(&self.targets)
             .filter_map(|(g, t)| t.map(|t| (g.particle, t)))
+    }
+
+    /// Summed magnitude of the work the hands have done on the cloth since t = 0, J.
+    pub fn hand_work(&self) -> Real {
+        self.hand_work
     }
 
     /// Removes grab `index`, releasing its particle.

@@ -62,10 +62,55 @@ pub(crate) fn add_row(
     }
 }
 
+/// Adds `pressure * A_i` (N) to every particle of row `here`, `pressure` = `P_b - P_a` (Pa)
+/// and `A_i` the particle's share of the cloth's area vector ([`crate::PressureForce::Area`]):
+/// a sixth of `(b - v) x (c - v)` over the (up to six) triangles of `crate::Grid::triangles`
+/// around it, `v` the particle. `below` and `above` are the neighbouring rows, `None` at the
+/// grid's edge.
+pub(crate) fn add_row_area(
+    force: &mut RowMut<'_>,
+    here: RowRef<'_>,
+    below: Option<RowRef<'_>>,
+    above: Option<RowRef<'_>>,
+    pressure: Real,
+) {
+    let nx = here.x.len();
+    let scale = pressure / 6.0;
+    for i in 0..nx {
+        let v = here.get(i);
+        let (west, east) = (i > 0, i + 1 < nx);
+        let mut sum = Vec3::ZERO;
+        let mut tri = |b: Vec3, c: Vec3| sum += (b - v).cross(c - v);
+        // The ring E, S, SW, W, N, NE: triangles (v, NE, E), (v, N, NE), (v, W, N), (v, S, SW),
+        // (v, SW, W), (v, E, S), as in `Grid::triangles`.
+        if let Some(a) = above {
+            if east {
+                tri(a.get(i + 1), here.get(i + 1));
+                tri(a.get(i), a.get(i + 1));
+            }
+            if west {
+                tri(here.get(i - 1), a.get(i));
+            }
+        }
+        if let Some(b) = below {
+            if west {
+                tri(b.get(i), b.get(i - 1));
+                tri(b.get(i - 1), here.get(i - 1));
+            }
+            if east {
+                tri(here.get(i + 1), b.get(i));
+            }
+        }
+        force.x[i] += sum.x * scale;
+        force.y[i] += sum.y * scale;
+        force.z[i] += sum.z * scale;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::row;
+    use crate::math::{Soa, row};
     use crate::model::Grid;
     use crate::params::ClothParams;
 
@@ -103,6 +148,68 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The area shares sum to the cloth's area vector (a flat cloth: its area, up), give an
+    /// interior particle of a flat cloth `dx dz`, and are the gradient of the enclosed volume:
+    /// moving one particle by `d` changes the divergence-theorem volume of the cloth closed by
+    /// its projection by `A_i . d` to first order.
+    #[test]
+    fn area_shares_sum_to_the_area_and_are_the_volume_gradient() {
+        let grid = Grid::new(&ClothParams {
+            resolution: [6, 5],
+            ..Default::default()
+        });
+        let nx = grid.nx;
+        let shares = |p: &Soa| {
+            let mut out = Vec::new();
+            for j in 0..grid.nz {
+                let (mut fx, mut fy, mut fz) = (vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]);
+                let mut f = RowMut {
+                    x: &mut fx,
+                    y: &mut fy,
+                    z: &mut fz,
+                };
+                let below = (j > 0).then(|| row(p, nx, j - 1));
+                let above = (j + 1 < grid.nz).then(|| row(p, nx, j + 1));
+                add_row_area(&mut f, row(p, nx, j), below, above, 1.0);
+                out.extend((0..nx).map(|i| Vec3::new(fx[i], fy[i], fz[i])));
+            }
+            out
+        };
+        let flat = grid.rest_positions(Vec3::ZERO);
+        let a = shares(&flat);
+        let total: Vec3 = a.iter().copied().sum();
+        let area = 0.3 * 0.3;
+        assert!((total - Vec3::Y * area).length() < 1e-15, "{total}");
+        assert!((a[grid.index(2, 2)].y - grid.dx * grid.dz).abs() < 1e-15);
+        // The volume of the triangles' cones from the origin, (1/6) sum a . (b x c).
+        let volume = |p: &Soa| -> Real {
+            grid.triangles()
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|k| p.get(k as usize));
+                    a.dot(b.cross(c)) / 6.0
+                })
+                .sum()
+        };
+        let mut p = flat.clone();
+        for k in 0..grid.len() {
+            let s = k as Real;
+            p.y[k] += 0.02 * (0.9 * s).sin();
+            p.x[k] += 0.004 * (1.7 * s).cos();
+        }
+        let a = shares(&p);
+        let k = grid.index(2, 3);
+        let d = Vec3::new(1.0, -2.0, 0.5) * 1e-7;
+        let mut q = p.clone();
+        q.set(k, p.get(k) + d);
+        let dv = volume(&q) - volume(&p);
+        assert!(
+            (dv - a[k].dot(d)).abs() < 1e-6 * dv.abs(),
+            "{dv} vs {}",
+            a[k].dot(d)
+        );
     }
 
     #[test]

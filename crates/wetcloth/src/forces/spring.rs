@@ -24,6 +24,33 @@ pub fn spring_force(xi: Vec3, xj: Vec3, stiffness: Real, rest_length: Real) -> V
     d * (stiffness * (len - rest_length) / len)
 }
 
+/// Elastic energy of every spring of the grid in `x`, J: `sum k (d - l)^2 / 2` over the
+/// structural and shear springs (the potential of eq. 3.6).
+pub fn potential_energy(c: &SpringConsts, x: &Soa) -> Real {
+    let (nx, nz) = (c.nx, c.nz);
+    let mut e = 0.0;
+    let mut add = |a: usize, b: usize, k: Real, l: Real| {
+        let d = (x.get(b) - x.get(a)).length() - l;
+        e += 0.5 * k * d * d;
+    };
+    for j in 0..nz {
+        for i in 0..nx {
+            let a = j * nx + i;
+            if i + 1 < nx {
+                add(a, a + 1, c.structural, c.rest_x);
+            }
+            if j + 1 < nz {
+                add(a, a + nx, c.structural, c.rest_z);
+                if i + 1 < nx {
+                    add(a, a + nx + 1, c.shear, c.rest_diag);
+                    add(a + 1, a + nx, c.shear, c.rest_diag);
+                }
+            }
+        }
+    }
+    e
+}
+
 /// Writes to `f[k]` the spring force on particle `a[k]` from particle `b[k]` for every `k` (the
 /// force on `b[k]` is its opposite): one stencil direction over a run of a row. Written over
 /// plain slices (no branches, one square root and one divide) so the compiler vectorises it
@@ -54,16 +81,20 @@ pub(crate) fn spring_forces(
 
 /// The springs' constants: stiffnesses (N/m) and rest lengths (m).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct SpringConsts {
-    /// Particles along x and z.
+pub struct SpringConsts {
+    /// Particles along x.
     pub nx: usize,
+    /// Particles along z.
     pub nz: usize,
-    /// Structural and shear stiffness, N/m.
+    /// Structural stiffness, N/m.
     pub structural: Real,
+    /// Shear stiffness, N/m.
     pub shear: Real,
-    /// Rest lengths along x, along z and of the diagonals, m.
+    /// Rest length along x, m.
     pub rest_x: Real,
+    /// Rest length along z, m.
     pub rest_z: Real,
+    /// Rest length of the diagonals, m.
     pub rest_diag: Real,
 }
 

@@ -54,7 +54,8 @@ impl IntegratorState {
     }
 
     /// One step of `dt` s (see the module docs). Returns the largest squared distance (m^2) of
-    /// a new position from `fused.reference`.
+    /// a new position from `fused.reference`, and for an [`AirLoad::EndOfStep`] the pressure
+    /// it solved (Pa).
     pub fn step(
         &mut self,
         model: &Model,
@@ -63,7 +64,7 @@ impl IntegratorState {
         air: AirLoad,
         dt: Real,
         fused: Fused<'_>,
-    ) -> Real {
+    ) -> (Real, Option<Real>) {
         match self {
             IntegratorState::Verlet(v) => v.step(model, state, control, air, dt, fused),
         }

@@ -14,6 +14,7 @@
 use super::Fused;
 use crate::air::AirLoad;
 use crate::air::gap::StickingPlane;
+use crate::checks;
 use crate::collide::Collider;
 use crate::collide::contact;
 use crate::collide::plane::{self, PlaneContact};
@@ -23,6 +24,7 @@ use crate::forces::{gravity, pressure};
 use crate::math::{Real, RowMut, RowRef, Soa, Vec3, row};
 use crate::measure::{self, CellMeasures, LANES};
 use crate::model::{Grid, Model};
+use crate::params::PressureForce;
 use crate::state::{Motion, State};
 use rayon::prelude::*;
 
@@ -35,6 +37,8 @@ pub(crate) struct Verlet {
     springs: RowPair,
     /// The grabbed particles' previous positions (the pass overwrites them), m.
     saved_prev: Vec<Vec3>,
+    /// The cell measures of the coasting positions (for an end-of-step pressure).
+    coast: measure::Measures,
 }
 
 /// The springs of the current and the previous row.
@@ -72,8 +76,12 @@ struct StepConsts<'a> {
     /// `damping * m / dt`, kg/s^2: the damping force is `-damp * (x - x_prev)`.
     damp: Real,
     springs: SpringConsts,
-    /// `(P_b - P_a) S`, N: the pressure force is this times the unit normal.
+    /// `P_b - P_a`, Pa, during the step.
+    pressure: Real,
+    /// `(P_b - P_a) S`, N: the thesis' pressure force is this times the unit normal.
     pressure_area: Real,
+    /// How the pressure becomes forces.
+    pressure_law: PressureForce,
     radius: Real,
     /// `dt^2 / m`, s^2/kg (halved on the first step: the Taylor start): a force of 1 N moves a
     /// particle by this many metres over the step.
@@ -91,6 +99,7 @@ impl Verlet {
             force: Soa::zeros(n),
             springs: RowPair::new(nx),
             saved_prev: Vec::new(),
+            coast: measure::Measures::new(n / nx),
         }
     }
 
@@ -100,10 +109,12 @@ impl Verlet {
             + self.springs.current.heap_bytes()
             + self.springs.previous.heap_bytes()
             + self.saved_prev.capacity() * std::mem::size_of::<Vec3>()
+            + self.coast.heap_bytes()
     }
 
     /// One step of `dt` s: forces, position Verlet, contacts, the hand. Returns the largest
-    /// squared distance (m^2) of a new position from `fused.reference` (0 without one).
+    /// squared distance (m^2) of a new position from `fused.reference` (0 without one) and,
+    /// for an [`AirLoad::EndOfStep`], the bubble pressure it solved (Pa).
     pub fn step(
         &mut self,
         model: &Model,
@@ -112,9 +123,8 @@ impl Verlet {
         load: AirLoad,
         dt: Real,
         fused: Fused<'_>,
-    ) -> Real {
+    ) -> (Real, Option<Real>) {
         state.use_previous_positions(dt);
-        let AirLoad::Uniform(pressure_area) = load;
         let grid = &model.grid;
         let mass = model.particle_mass;
         let Motion::Previous(prev) = &mut state.motion else {
@@ -123,7 +133,7 @@ impl Verlet {
         self.saved_prev.clear();
         self.saved_prev
             .extend(control.grabs.iter().map(|g| prev.get(g.particle)));
-        let consts = StepConsts {
+        let mut consts = StepConsts {
             grid,
             planes: &model.planes,
             non_planes: &model.non_planes,
@@ -131,7 +141,9 @@ impl Verlet {
             gravity: model.gravity,
             damp: model.damping * mass / dt,
             springs: model.springs,
-            pressure_area,
+            pressure: 0.0,
+            pressure_area: 0.0,
+            pressure_law: model.pressure_force,
             radius: model.radius,
             step_per_force: dt * dt / mass * if state.steps == 0 { 0.5 } else { 1.0 },
             reference: fused.reference,
@@ -139,9 +151,113 @@ impl Verlet {
         };
         let nx = grid.nx;
         let x = &state.x;
-        let (p, f) = (prev, &mut self.force);
-        let moved2 = if let Some(rows) = fused.rows_per_task {
-            // Blocks of rows, one task each; the split never changes the result.
+        let rows = fused.rows_per_task;
+        let mut blocks = Blocks {
+            nx,
+            rows,
+            held: &control.held,
+            force: &mut self.force,
+            contact: &mut state.contact,
+            measures: &mut fused.measures.rows,
+            springs: &mut self.springs,
+        };
+        let prev: &mut Soa = prev;
+        let (moved2, solved) = match load {
+            AirLoad::Uniform(pressure) => {
+                // Forces, Verlet and contacts in one pass over the rows.
+                consts.pressure = pressure;
+                consts.pressure_area = pressure * model.area_per_particle;
+                let moved2 = blocks.run(prev, |b, springs| step_rows(&consts, x, b, springs));
+                (moved2, None)
+            }
+            AirLoad::EndOfStep(solve) => {
+                // Everything but the pressure first, to the coasting positions; the hands
+                // carry their particles; then the pressure of the end of the step, and the
+                // pressure's move and the contacts in a second pass.
+                blocks.run(prev, |b, springs| {
+                    coast_rows(&consts, x, b, springs);
+                    0.0
+                });
+                for (k, target) in control.active() {
+                    prev.set(k, target);
+                }
+                self.coast
+                    .remeasure_all(grid, prev, model.sticking, model.radius, rows);
+                let volume = self.coast.totals().volume;
+                let pressure = solve.solve(model, prev, volume, &control.held);
+                consts.pressure = pressure - solve.atmosphere;
+                consts.pressure_area = consts.pressure * model.area_per_particle;
+                let moved2 = blocks.run(prev, |b, _| finish_rows(&consts, x, b));
+                (moved2, Some(pressure))
+            }
+        };
+        let p = prev;
+        std::mem::swap(&mut state.x, p);
+        let remeasure = |measures: &mut measure::Measures, x: &Soa, j: usize| {
+            measures.remeasure_row(grid, x, j, model.sticking, model.radius);
+        };
+        // The measures of the cell rows that straddle two blocks (see `step_rows`).
+        if let Some(rows) = rows {
+            for j in (rows - 1..grid.nz - 1).step_by(rows) {
+                remeasure(fused.measures, &state.x, j);
+            }
+        }
+
+        // The hand (thesis 3.2 step 3): cancel the particle's own motion, carry it to its
+        // target, and record the force that does so: m (target - 2 x + x_prev) / dt^2 - F.
+        let m_dt2 = mass / (dt * dt);
+        let mut work = 0.0;
+        for (g, (target, before)) in control
+            .grabs
+            .iter_mut()
+            .zip(control.targets.iter().zip(&self.saved_prev))
+        {
+            let k = g.particle;
+            match target {
+                Some(target) => {
+                    let accel = (*target - 2.0 * p.get(k) + *before) * m_dt2;
+                    g.force = accel - self.force.get(k);
+                    work += checks::work(g.force, p.get(k), *target).abs();
+                    state.x.set(k, *target);
+                }
+                None => g.force = Vec3::ZERO,
+            }
+        }
+        control.hand_work += work;
+        // The measures of the cells around the particles the hand moved.
+        for (k, _) in control.active() {
+            let j = k / nx;
+            remeasure(fused.measures, &state.x, j.saturating_sub(1));
+            remeasure(fused.measures, &state.x, j);
+        }
+        (moved2, solved)
+    }
+}
+
+/// The buffers a row pass writes, split into blocks of rows: one block per task on the pool
+/// (`rows` rows each), or the whole grid on the calling thread.
+struct Blocks<'a> {
+    nx: usize,
+    rows: Option<usize>,
+    held: &'a [bool],
+    force: &'a mut Soa,
+    contact: &'a mut [bool],
+    measures: &'a mut [CellMeasures],
+    /// Spring rows of the calling thread (pool threads keep their own).
+    springs: &'a mut RowPair,
+}
+
+impl Blocks<'_> {
+    /// Runs `pass` on every block of `prev` (the previous positions, new ones on exit) and the
+    /// other buffers, returning the largest value it returns. The split never changes the
+    /// result: every particle's value is a fixed sequence of operations.
+    fn run<F>(&mut self, prev: &mut Soa, pass: F) -> Real
+    where
+        F: Fn(Block<'_, '_>, &mut RowPair) -> Real + Sync,
+    {
+        let nx = self.nx;
+        let (p, f) = (prev, &mut *self.force);
+        if let Some(rows) = self.rows {
             let block = nx * rows;
             (
                 p.x.par_chunks_mut(block),
@@ -150,34 +266,34 @@ impl Verlet {
                 f.x.par_chunks_mut(block),
                 f.y.par_chunks_mut(block),
                 f.z.par_chunks_mut(block),
-                state.contact.par_chunks_mut(block),
-                fused.measures.rows.par_chunks_mut(rows),
+                self.contact.par_chunks_mut(block),
+                self.measures.par_chunks_mut(rows),
+                self.held.par_chunks(block),
             )
                 .into_par_iter()
                 .enumerate()
-                .map(|(b, (px, py, pz, fx, fy, fz, contact, measures))| {
+                .map(|(b, (px, py, pz, fx, fy, fz, contact, measures, held))| {
                     THREAD_SPRINGS.with_borrow_mut(|springs| {
                         if !springs.fits(nx) {
                             *springs = RowPair::new(nx);
                         }
-                        let mut prev = RowMut {
-                            x: px,
-                            y: py,
-                            z: pz,
-                        };
-                        let mut force = RowMut {
-                            x: fx,
-                            y: fy,
-                            z: fz,
-                        };
                         let block = Block {
                             j0: b * rows,
-                            prev: &mut prev,
-                            force: &mut force,
+                            prev: &mut RowMut {
+                                x: px,
+                                y: py,
+                                z: pz,
+                            },
+                            force: &mut RowMut {
+                                x: fx,
+                                y: fy,
+                                z: fz,
+                            },
                             contact,
                             measures,
+                            held,
                         };
-                        step_rows(&consts, x, block, springs)
+                        pass(block, springs)
                     })
                 })
                 .reduce(|| 0.0, Real::max)
@@ -194,84 +310,95 @@ impl Verlet {
                     y: &mut f.y,
                     z: &mut f.z,
                 },
-                contact: &mut state.contact,
-                measures: &mut fused.measures.rows,
+                contact: self.contact,
+                measures: self.measures,
+                held: self.held,
             };
-            step_rows(&consts, x, block, &mut self.springs)
-        };
-        std::mem::swap(&mut state.x, p);
-        let remeasure = |measures: &mut measure::Measures, x: &Soa, j: usize| {
-            measures.remeasure_row(grid, x, j, model.sticking, model.radius);
-        };
-        // The measures of the cell rows that straddle two blocks (see `step_rows`).
-        if let Some(rows) = fused.rows_per_task {
-            for j in (rows - 1..grid.nz - 1).step_by(rows) {
-                remeasure(fused.measures, &state.x, j);
-            }
+            pass(block, self.springs)
         }
-
-        // The hand (thesis 3.2 step 3): cancel the particle's own motion, carry it to its
-        // target, and record the force that does so: m (target - 2 x + x_prev) / dt^2 - F.
-        let m_dt2 = mass / (dt * dt);
-        for (g, (target, before)) in control
-            .grabs
-            .iter_mut()
-            .zip(control.targets.iter().zip(&self.saved_prev))
-        {
-            let k = g.particle;
-            match target {
-                Some(target) => {
-                    let accel = (*target - 2.0 * p.get(k) + *before) * m_dt2;
-                    g.force = accel - self.force.get(k);
-                    state.x.set(k, *target);
-                }
-                None => g.force = Vec3::ZERO,
-            }
-        }
-        control.hold_targets();
-        // The measures of the cells around the particles the hand moved.
-        for (k, _) in control.active() {
-            let j = k / nx;
-            remeasure(fused.measures, &state.x, j.saturating_sub(1));
-            remeasure(fused.measures, &state.x, j);
-        }
-        moved2
     }
 }
 
-/// The rows of one block: its previous positions (new ones on exit), forces, contact flags and
-/// cell measures, starting at row `j0`.
+/// The rows of one block: its previous positions (new ones on exit), forces, contact flags,
+/// cell measures and the hands' hold flags, starting at row `j0`.
 struct Block<'a, 'b> {
     j0: usize,
     prev: &'a mut RowMut<'b>,
     force: &'a mut RowMut<'b>,
     contact: &'a mut [bool],
     measures: &'a mut [CellMeasures],
+    held: &'a [bool],
 }
 
 /// Forces, position Verlet and contacts for the block of rows `b` (as many rows as `b.prev`
-/// holds). Reads the current positions of the block and one row around it.
+/// holds), in one pass. Reads the current positions of the block and one row around it.
 ///
 /// Each spring is evaluated once: a row's springs towards the next row are kept for the next
 /// row, and a block that does not start at row 0 first evaluates the row above it again. Every
 /// particle adds its terms in the same fixed order whatever the blocks are, so the result does
 /// not depend on how the rows are split between threads.
 ///
-/// While the new positions are at hand it also measures them: `b.measures[k]` receives
+/// While the new positions are at hand it also measures them (see [`walk_rows`]) and returns
+/// the largest squared distance (m^2) of a new position from `c.reference`.
+fn step_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPair) -> Real {
+    if b.j0 > 0 {
+        springs.previous.compute(&c.springs, x, b.j0 - 1, false);
+    }
+    walk_rows(c, b, true, |j, p, f, contact| {
+        springs.current.compute(&c.springs, x, j, true);
+        step_row(c, j, x, p, f, contact, springs);
+        std::mem::swap(&mut springs.current, &mut springs.previous);
+    })
+}
+
+/// The first pass of a step with an end-of-step pressure: every force but the pressure, and
+/// the Verlet move to the coasting positions (no contacts yet), for the block of rows `b`.
+fn coast_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPair) {
+    if b.j0 > 0 {
+        springs.previous.compute(&c.springs, x, b.j0 - 1, false);
+    }
+    walk_rows(c, b, false, |j, p, f, _| {
+        springs.current.compute(&c.springs, x, j, true);
+        let (nx, nz) = (c.grid.nx, c.grid.nz);
+        let here = row(x, nx, j);
+        gravity::set_row(f, here, p.as_ref(), c.gravity * c.mass, c.damp);
+        spring::add_row(f, &springs.current, &springs.previous, j, nx, nz);
+        verlet_row(here, p, f.as_ref(), c.step_per_force);
+        std::mem::swap(&mut springs.current, &mut springs.previous);
+    });
+}
+
+/// The second pass of a step with an end-of-step pressure: the pressure force (added to
+/// `b.force`) and its move from the coasting positions in `b.prev`, then the contacts, for the
+/// block of rows `b`; measures like [`step_rows`].
+fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>) -> Real {
+    walk_rows(c, b, true, |j, next, f, contact| {
+        let here = row(x, c.grid.nx, j);
+        // The pressure force, into the forces (for the hand's force) and, times h, into the
+        // move.
+        add_pressure(c, j, x, f, 1.0);
+        add_pressure(c, j, x, next, c.step_per_force);
+        contact_row(c, here, next, contact);
+    })
+}
+
+/// Walks the rows of block `b`: `row_fn(j, prev, force, contact)` on each row's slices, then,
+/// if `measure`, measures the new positions while they are at hand: `b.measures[k]` receives
 /// [`measure::cells`] of rows `j0 + k` and `j0 + k + 1` for the cells inside the block (the
 /// last entry, whose next row belongs to the next block, is left for the caller, except on the
 /// grid's last row), and the return value is the largest squared distance (m^2) of a new
 /// position from `c.reference` (0 without one): the self-collision lists' skin test.
-fn step_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPair) -> Real {
+fn walk_rows(
+    c: &StepConsts<'_>,
+    b: Block<'_, '_>,
+    measure: bool,
+    mut row_fn: impl FnMut(usize, &mut RowMut<'_>, &mut RowMut<'_>, &mut [bool]),
+) -> Real {
     let mut moved: Real = 0.0;
     let nx = c.grid.nx;
     let (j0, prev, force) = (b.j0, b.prev, b.force);
     let rows = prev.x.len() / nx;
-    if j0 > 0 {
-        springs.previous.compute(&c.springs, x, j0 - 1, false);
-    }
     for j in j0..j0 + rows {
-        springs.current.compute(&c.springs, x, j, true);
         let r = (j - j0) * nx..(j - j0 + 1) * nx;
         let mut p = RowMut {
             x: &mut prev.x[r.clone()],
@@ -283,11 +410,14 @@ fn step_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPai
             y: &mut force.y[r.clone()],
             z: &mut force.z[r.clone()],
         };
-        step_row(c, j, x, &mut p, &mut f, &mut b.contact[r], springs);
-        if let Some(reference) = c.reference {
-            moved = moved.max(max_distance2(p.as_ref(), row(reference, nx, j)));
+        row_fn(j, &mut p, &mut f, &mut b.contact[r.clone()]);
+        if !measure {
+            continue;
         }
-        std::mem::swap(&mut springs.current, &mut springs.previous);
+        if let Some(reference) = c.reference {
+            let held = &b.held[r.clone()];
+            moved = moved.max(max_distance2(p.as_ref(), row(reference, nx, j), held));
+        }
         // The cells between the previous row and this one, both new now.
         let new_row = |k: usize| RowRef {
             x: &prev.x[k * nx..(k + 1) * nx],
@@ -311,24 +441,32 @@ fn step_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPai
     moved
 }
 
-/// Largest squared distance between `a[i]` and `b[i]`, m^2, with lane-wise maxima (it
-/// vectorises).
-fn max_distance2(a: RowRef<'_>, b: RowRef<'_>) -> Real {
+/// Largest squared distance between `a[i]` and `b[i]` over the `i` not `held`, m^2, with
+/// lane-wise maxima (it vectorises). A held particle's position here is the pass's free
+/// flight, which the hand overrides afterwards: it does not count (the step measures the
+/// hand's own moves).
+fn max_distance2(a: RowRef<'_>, b: RowRef<'_>, held: &[bool]) -> Real {
     let n = a.x.len();
-    let (bx, by, bz) = (&b.x[..n], &b.y[..n], &b.z[..n]);
+    let (bx, by, bz, held) = (&b.x[..n], &b.y[..n], &b.z[..n], &held[..n]);
     let mut lanes = [0.0 as Real; LANES];
     let full = n - n % LANES;
     for base in (0..full).step_by(LANES) {
         for (l, m) in lanes.iter_mut().enumerate() {
             let i = base + l;
             let (dx, dy, dz) = (a.x[i] - bx[i], a.y[i] - by[i], a.z[i] - bz[i]);
-            let d = dx * dx + dy * dy + dz * dz;
+            let d = if held[i] {
+                0.0
+            } else {
+                dx * dx + dy * dy + dz * dz
+            };
             *m = if d > *m { d } else { *m };
         }
     }
     for i in full..n {
         let (dx, dy, dz) = (a.x[i] - bx[i], a.y[i] - by[i], a.z[i] - bz[i]);
-        lanes[0] = lanes[0].max(dx * dx + dy * dy + dz * dz);
+        if !held[i] {
+            lanes[0] = lanes[0].max(dx * dx + dy * dy + dz * dz);
+        }
     }
     lanes.into_iter().fold(0.0, Real::max)
 }
@@ -352,36 +490,71 @@ fn step_row(
     spring::add_row(force, &springs.current, &springs.previous, j, nx, nz);
 
     // Pressure force (eq. 3.7): (P_b - P_a) S N.
-    if c.pressure_area != 0.0 {
-        let below = row(x, nx, j.saturating_sub(1));
-        let above = row(x, nx, (j + 1).min(nz - 1));
-        pressure::add_row(force, here, below, above, c.pressure_area);
-    }
+    add_pressure(c, j, x, force, 1.0);
 
-    // Position Verlet (eq. 3.1), written as x + (x - x_prev) + F h: the step is added to x, not
-    // to 2x, which halves the round-off for slow particles.
-    {
-        let h = c.step_per_force;
-        let (fx, fy, fz) = (&force.x[..nx], &force.y[..nx], &force.z[..nx]);
-        let (px, py, pz) = (&mut prev.x[..nx], &mut prev.y[..nx], &mut prev.z[..nx]);
-        for i in 0..nx {
-            px[i] = here.x[i] + (here.x[i] - px[i]) + fx[i] * h;
-            py[i] = here.y[i] + (here.y[i] - py[i]) + fy[i] * h;
-            pz[i] = here.z[i] + (here.z[i] - pz[i]) + fz[i] * h;
+    verlet_row(here, prev, force.as_ref(), c.step_per_force);
+    contact_row(c, here, prev, contact);
+}
+
+/// Adds `scale` times the pressure force (eq. 3.7, by `c.pressure_law`) on row `j` of `x` to
+/// `out`; nothing when the pressure difference is 0.
+#[inline]
+fn add_pressure(c: &StepConsts<'_>, j: usize, x: &Soa, out: &mut RowMut<'_>, scale: Real) {
+    if c.pressure == 0.0 {
+        return;
+    }
+    let (nx, nz) = (c.grid.nx, c.grid.nz);
+    let here = row(x, nx, j);
+    match c.pressure_law {
+        PressureForce::Thesis => {
+            let below = row(x, nx, j.saturating_sub(1));
+            let above = row(x, nx, (j + 1).min(nz - 1));
+            let area = if scale == 1.0 {
+                c.pressure_area
+            } else {
+                c.pressure_area * scale
+            };
+            pressure::add_row(out, here, below, above, area);
+        }
+        PressureForce::Area => {
+            let below = (j > 0).then(|| row(x, nx, j - 1));
+            let above = (j + 1 < nz).then(|| row(x, nx, j + 1));
+            pressure::add_row_area(out, here, below, above, c.pressure * scale);
         }
     }
+}
 
-    // Contacts: normal force and Coulomb friction (eq. 3.4-3.5), see `collide::contact`.
+/// Position Verlet (eq. 3.1) for a row: `prev` holds `x(t - dt)` on entry and `x(t + dt)` on
+/// exit, written as `x + (x - x_prev) + F h` (`h` in s^2/kg): the step is added to `x`, not
+/// to `2x`, which halves the round-off for slow particles.
+#[inline]
+fn verlet_row(here: RowRef<'_>, prev: &mut RowMut<'_>, force: RowRef<'_>, h: Real) {
+    let nx = here.x.len();
+    let (fx, fy, fz) = (&force.x[..nx], &force.y[..nx], &force.z[..nx]);
+    let (px, py, pz) = (&mut prev.x[..nx], &mut prev.y[..nx], &mut prev.z[..nx]);
+    for i in 0..nx {
+        px[i] = here.x[i] + (here.x[i] - px[i]) + fx[i] * h;
+        py[i] = here.y[i] + (here.y[i] - py[i]) + fy[i] * h;
+        pz[i] = here.z[i] + (here.z[i] - pz[i]) + fz[i] * h;
+    }
+}
+
+/// Contacts of a row moving from `here` to `next`: normal force and Coulomb friction
+/// (eq. 3.4-3.5, see `collide::contact`), planes on the vectorised row, other shapes one
+/// particle at a time; `contact` flags the particles that touched.
+#[inline]
+fn contact_row(c: &StepConsts<'_>, here: RowRef<'_>, next: &mut RowMut<'_>, contact: &mut [bool]) {
+    let nx = here.x.len();
     contact[..nx].fill(false);
     for p in c.planes {
-        plane::contact_row(p, here, prev, &mut contact[..nx]);
+        plane::contact_row(p, here, next, &mut contact[..nx]);
     }
     if !c.non_planes.is_empty() {
         for i in 0..nx {
             let now = here.get(i);
-            let next = Vec3::new(prev.x[i], prev.y[i], prev.z[i]);
-            let (next, hit) = contact::resolve(c.non_planes, now, next, c.radius);
-            (prev.x[i], prev.y[i], prev.z[i]) = (next.x, next.y, next.z);
+            let to = Vec3::new(next.x[i], next.y[i], next.z[i]);
+            let (to, hit) = contact::resolve(c.non_planes, now, to, c.radius);
+            (next.x[i], next.y[i], next.z[i]) = (to.x, to.y, to.z);
             contact[i] |= hit;
         }
     }

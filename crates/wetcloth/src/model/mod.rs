@@ -33,6 +33,8 @@ pub struct Model {
     pub cloth_area: Real,
     /// Border particles in order around the cloth, each once (for leaks through the border).
     pub border: Vec<u32>,
+    /// How the pressure becomes forces on the particles.
+    pub pressure_force: crate::params::PressureForce,
     /// Gravitational acceleration, m/s^2 (thesis eq. 3.3).
     pub gravity: Vec3,
     /// Velocity damping rate, 1/s.
@@ -42,7 +44,7 @@ pub struct Model {
     /// The sticking surface of the air model (the first plane collider), if any.
     pub sticking: Option<StickingPlane>,
     /// The springs' stiffnesses and rest lengths.
-    pub(crate) springs: SpringConsts,
+    pub springs: SpringConsts,
     /// Plane colliders prepared for the vectorised contact row.
     pub(crate) planes: Vec<PlaneContact>,
     /// The colliders without a vectorised row (every shape but the plane), answered through
@@ -65,6 +67,7 @@ impl Model {
             area_per_particle: cloth_area / n as Real,
             cloth_area,
             border: grid.border_loop(),
+            pressure_force: config.air.pressure_force,
             gravity: config.simulation.gravity,
             damping: config.cloth.damping,
             springs: SpringConsts {

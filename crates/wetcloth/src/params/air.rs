@@ -22,6 +22,44 @@ pub struct AirParams {
     /// How the step evaluates the bubble pressure of the pressure force. Default
     /// [`PressureSolve::Implicit`].
     pub pressure_solve: PressureSolve,
+    /// How the pressure force is spread over the particles. Default [`PressureForce::Thesis`].
+    pub pressure_force: PressureForce,
+}
+
+/// How the pressure difference becomes a force on each particle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum PressureForce {
+    /// The thesis' eq. 3.7: `(P_b - P_a) S N` with `S` the rest area per particle (the same for
+    /// every particle, border ones included) and `N` the unit normal.
+    #[default]
+    Thesis,
+    /// `(P_b - P_a) A_i`, with `A_i` the particle's share of the cloth's area vector: a third of
+    /// the area vector `(b - a) x (c - a) / 2` of each triangle around it. On a flat cloth at rest
+    /// it is the thesis' force for interior particles (area `dx dz`), and border particles get
+    /// the area they actually bound (half at an edge, a sixth or a third at a corner). It is the
+    /// gradient of the volume the cloth encloses, so the pressure does no net work around a
+    /// closed cycle of shapes; the thesis' force, with a constant `S` and a unit normal, is not
+    /// a gradient, and where the cloth creases at a border (a corner peeled under suction) it
+    /// can feed energy into the crease's oscillation until the run blows up, whatever the step.
+    Area,
+}
+
+impl PressureForce {
+    /// Both choices.
+    pub const ALL: [PressureForce; 2] = [PressureForce::Thesis, PressureForce::Area];
+
+    /// The scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            PressureForce::Thesis => "thesis",
+            PressureForce::Area => "area",
+        }
+    }
+
+    /// Parses a scene-file name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == s)
+    }
 }
 
 /// How a step evaluates the bubble pressure `P_b` that its pressure force uses.
@@ -32,11 +70,11 @@ pub enum PressureSolve {
     /// bubble (under about 70 cm^3 for the thesis cloth) blows up.
     Explicit,
     /// The pressure at the *end* of the step: `P_b` solves `P_b v(t + dt) = P_a v0`, with
-    /// `v(t + dt)` predicted from the step's own dynamics (inertia, damping, gravity, and the
-    /// pressure force itself on the particles not held by a contact), a quadratic with one
-    /// positive root. The bubble's stiffness acts on the whole cloth as one mode, and that mode
-    /// is then integrated implicitly (the prediction overestimates the volume's response a
-    /// little, which damps it); the other forces stay explicit.
+    /// `v(t + dt)` predicted from the step's own dynamics: the integrator first moves the
+    /// particles by every other force (inertia, springs, gravity, damping) and then solves
+    /// Boyle's law with the pressure's own move, capped where it presses a particle onto the
+    /// surface (see `air::bubble::EndOfStep`). The bubble's stiffness acts on the whole cloth
+    /// as one mode, and that mode is integrated implicitly; the other forces stay explicit.
     #[default]
     Implicit,
 }
@@ -67,6 +105,7 @@ impl Default for AirParams {
             trapped_air: 0.0,
             leak_conductance: 0.0,
             pressure_solve: PressureSolve::Implicit,
+            pressure_force: PressureForce::Thesis,
         }
     }
 }

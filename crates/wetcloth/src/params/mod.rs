@@ -9,7 +9,7 @@
 //! |---|---|
 //! | `simulation.rs` | `[simulation]`: [`SimulationParams`], [`Integrator`] |
 //! | `cloth.rs` | `[cloth]`: [`ClothParams`] |
-//! | `air.rs` | `[air]`: [`AirParams`], [`PressureSolve`] |
+//! | `air.rs` | `[air]`: [`AirParams`], [`PressureSolve`], [`PressureForce`] |
 //! | `stability.rs` | [`SimConfig::stable_time_step`], the explicit limit |
 //!
 //! Colliders (`[[collider]]`) are described in [`crate::collide`], grabs (`[[grab]]`) in
@@ -20,7 +20,7 @@ mod cloth;
 mod simulation;
 mod stability;
 
-pub use air::{AirParams, PressureSolve};
+pub use air::{AirParams, PressureForce, PressureSolve};
 pub use cloth::ClothParams;
 pub use simulation::{Integrator, SimulationParams};
 
@@ -138,11 +138,11 @@ impl SimConfig {
         check_range("cloth.thickness", c.thickness, 0.0, 0.1)?;
         check_range("cloth.collision_margin", c.collision_margin, 0.0, 0.1)?;
         check_range("cloth.strain_limit", c.strain_limit, 0.0, 10.0)?;
-        if !(1..=100).contains(&c.strain_limit_iterations) {
+        if !(1..=10_000).contains(&c.strain_limit_iterations) {
             return Err(ConfigError::OutOfRange {
                 key: "cloth.strain_limit_iterations".into(),
                 value: c.strain_limit_iterations.to_string(),
-                range: "[1, 100]".into(),
+                range: "[1, 10000]".into(),
             });
         }
 

@@ -1,0 +1,84 @@
+//! The shipped scenes, run as a user runs them.
+
+use std::path::Path;
+use wetcloth::{Real, Simulation};
+
+fn scene(name: &str) -> wetcloth_scene::Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name);
+    let text = std::fs::read_to_string(&path).unwrap();
+    wetcloth_scene::parse(&text, &path).unwrap()
+}
+
+/// Symptom: `scenes/peel-leak.toml` ran at its own step (8.33e-5 s) and at 7.5e-5 s, but at
+/// 6.25e-5, 5e-5 and 4.2e-5 s the whole cloth jumped off the table and the run blew up: a
+/// smaller explicit step was less stable. Causes: (1) the implicit bubble pressure predicted
+/// the end-of-step volume from the volume's own last change, ignoring the springs and letting
+/// only particles off the table respond; around the tiny leaking bubble its prediction came out
+/// 10 % off and, now and then, far too small, and the resulting over-pressure acted on the
+/// whole cloth; (2) the thesis' pressure force, with the same area S for border particles and a
+/// unit normal, is not the gradient of the volume, and on the peeled corner (a crease at the
+/// border) it feeds energy into the crease's flapping. Fixes: the pressure is solved from the
+/// step's coasting positions (springs and contacts included, see `air::bubble::EndOfStep`),
+/// and the scene spreads the pressure by area (`pressure_force = "area"`). Here: the scene runs
+/// at its own step and four smaller ones, and the outcome (air let in, bubble pressure, the
+/// hand's force) agrees between them.
+fn peel_leak_at(dt: Real) {
+    let base = scene("peel-leak.toml").config;
+    let mut cfg = base.clone();
+    cfg.simulation.time_step = dt;
+    let mut sim = Simulation::new(cfg).unwrap();
+    let frames = 30;
+    let per_frame = (base.simulation.duration / frames as Real / dt).round() as u64;
+    let mut peak_energy: Real = 0.0;
+    for _ in 0..frames {
+        sim.advance(per_frame)
+            .unwrap_or_else(|e| panic!("at dt = {dt} s: {e}"));
+        peak_energy = peak_energy.max(sim.metrics().kinetic_energy);
+    }
+    let m = sim.metrics();
+    // At its own step the scene ends with 2.8 cm^3 let in, the bubble at 93 kPa and the hand
+    // pulling 4.8 N; smaller steps must agree within 30 %.
+    assert!(peak_energy < 0.02, "dt = {dt} s: {peak_energy} J");
+    assert!(
+        m.air_pressure > 80e3 && m.air_pressure < 101_325.0,
+        "dt = {dt} s: {} Pa",
+        m.air_pressure
+    );
+    assert!(
+        (m.trapped_air / 2.76e-6 - 1.0).abs() < 0.3,
+        "dt = {dt} s: {} m^3 let in",
+        m.trapped_air
+    );
+    assert!(
+        (m.grab_force / 4.8 - 1.0).abs() < 0.3,
+        "dt = {dt} s: {} N",
+        m.grab_force
+    );
+}
+
+#[test]
+fn peel_leak_runs_at_its_own_step() {
+    peel_leak_at(8.333e-5);
+}
+
+#[test]
+fn peel_leak_runs_at_smaller_steps_7_5e_5() {
+    peel_leak_at(7.5e-5);
+}
+
+#[test]
+fn peel_leak_runs_at_smaller_steps_6_25e_5() {
+    peel_leak_at(6.25e-5);
+}
+
+#[test]
+fn peel_leak_runs_at_smaller_steps_5e_5() {
+    peel_leak_at(5e-5);
+}
+
+#[test]
+fn peel_leak_runs_at_smaller_steps_4_2e_5() {
+    peel_leak_at(4.2e-5);
+}
