@@ -36,3 +36,44 @@ pub use run::{
     render_run_with_progress,
 };
 pub use wgpu;
+
+/// Reads the text file at `path`, refusing anything but a regular file (a device such as
+/// `/dev/zero` never ends) and files over `limit` bytes, with the file named in the error.
+pub(crate) fn read_limited(path: &std::path::Path, limit: u64) -> Result<String, RenderError> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| RenderError::io(path, e))?;
+    let meta = file.metadata().map_err(|e| RenderError::io(path, e))?;
+    let refuse = |message: String| RenderError::Parse {
+        path: path.to_path_buf(),
+        line: None,
+        message,
+    };
+    if !meta.is_file() {
+        return Err(refuse("not a regular file".into()));
+    }
+    if meta.len() > limit {
+        return Err(refuse(format!(
+            "{} bytes is more than the {limit} bytes read from such a file",
+            meta.len()
+        )));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| RenderError::io(path, e))?;
+    if bytes.len() as u64 > limit {
+        return Err(refuse(format!(
+            "more than the {limit} bytes read from such a file"
+        )));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        RenderError::Parse {
+            path: path.to_path_buf(),
+            line: Some(line),
+            message: "not UTF-8 text".into(),
+        }
+    })
+}
