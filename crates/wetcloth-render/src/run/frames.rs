@@ -138,7 +138,51 @@ pub fn list_frames(run_dir: &Path) -> Result<Vec<(u64, PathBuf)>, RenderError> {
         }
     }
     frames.sort();
+    if let Some(w) = frames.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(RenderError::Parse {
+            path: w[1].1.clone(),
+            line: None,
+            message: format!(
+                "is frame {} again, as is {}: one file per frame",
+                w[0].0,
+                w[0].1.display()
+            ),
+        });
+    }
     Ok(frames)
+}
+
+/// Checks that every frame a run says it wrote (`frame_0000.obj` up to `written - 1`, from
+/// `run.json`) is in `frames` (as [`list_frames`] returns them); frames beyond are allowed (a
+/// run stopped between writing a frame and updating `run.json`).
+pub(super) fn check_complete(
+    run_dir: &Path,
+    frames: &[(u64, PathBuf)],
+    written: u64,
+) -> Result<(), RenderError> {
+    let mut expected = 0u64;
+    for &(n, _) in frames {
+        if n >= written || n > expected {
+            break;
+        }
+        expected = n + 1;
+    }
+    if expected < written {
+        let missing = run_dir
+            .join("frames")
+            .join(format!("frame_{expected:04}.obj"));
+        return Err(RenderError::Parse {
+            path: run_dir.join("run.json"),
+            line: None,
+            message: format!(
+                "the run wrote {written} frame(s), frame_0000.obj to frame_{:04}.obj, but {} \
+                 is missing: the run folder is damaged",
+                written - 1,
+                missing.display()
+            ),
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]

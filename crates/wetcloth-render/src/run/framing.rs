@@ -5,7 +5,7 @@ use std::fmt;
 use std::path::PathBuf;
 use std::str::FromStr;
 
-use super::read_obj;
+use super::input::FrameCheck;
 use crate::camera::{Camera, DEFAULT_FOV_Y, FRAMING_PITCH, FRAMING_YAW};
 use crate::error::RenderError;
 use crate::mesh::{Solid, bounds_of};
@@ -164,12 +164,13 @@ pub(super) fn frame_run(
     frames: &[(u64, PathBuf)],
     solids: &[Solid],
     aspect: f32,
+    check: &mut FrameCheck,
 ) -> Result<Camera, RenderError> {
     let stride = frames.len().div_ceil(64).max(1);
     let mut corners: Vec<[f32; 3]> = Vec::new();
     for (k, (_, path)) in frames.iter().enumerate() {
         if k % stride == 0 || k + 1 == frames.len() {
-            let mesh = read_obj(path)?;
+            let mesh = check.read(path)?;
             if let Some((lo, hi)) = bounds_of(&mesh.positions) {
                 corners.extend([lo, hi]);
             }

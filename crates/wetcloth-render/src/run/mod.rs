@@ -29,7 +29,7 @@ use crate::error::RenderError;
 use crate::mesh::{Solid, smooth_normals};
 use crate::offscreen::Offscreen;
 use crate::renderer::{GroundPlane, MeshView, SceneView};
-use input::f32s;
+use input::{FrameCheck, f32s};
 use video::Encoder;
 
 /// What happened to the MP4.
@@ -100,15 +100,35 @@ pub fn render_run_with_progress(
     let run_dir = opts.run_dir.as_path();
     let info = read_run_info(run_dir)?;
     let all = list_frames(run_dir)?;
-    let sel = opts.frames.unwrap_or_default();
-    let frames: Vec<(u64, PathBuf)> = all
-        .into_iter()
-        .filter(|(n, _)| sel.contains(*n))
-        .step_by(sel.step.max(1) as usize)
-        .collect();
-    if frames.is_empty() {
+    if all.is_empty() {
         return Err(RenderError::NoFrames(run_dir.to_path_buf()));
     }
+    if let Some(written) = info.as_ref().and_then(|i| i.frames) {
+        frames::check_complete(run_dir, &all, written)?;
+    }
+    let sel = opts.frames.unwrap_or_default();
+    let frames: Vec<(u64, PathBuf)> = all
+        .iter()
+        .filter(|(n, _)| sel.contains(*n))
+        .step_by(sel.step.max(1) as usize)
+        .cloned()
+        .collect();
+    if frames.is_empty() {
+        return Err(RenderError::NoFramesSelected {
+            dir: run_dir.to_path_buf(),
+            selection: sel.to_string(),
+            first: all[0].0,
+            last: all[all.len() - 1].0,
+            count: all.len(),
+        });
+    }
+    if !opts.wetness.is_finite() || !(0.0..=1.0).contains(&opts.wetness) {
+        return Err(RenderError::Option(format!(
+            "wetness = {} is out of range: allowed 0 (dry) to 1 (wet)",
+            opts.wetness
+        )));
+    }
+    let mut check = FrameCheck::new(info.as_ref());
 
     // The scene around the cloth.
     let ground = match &info {
@@ -153,17 +173,14 @@ pub fn render_run_with_progress(
         &frames,
         &solids,
         aspect,
+        &mut check,
     )?;
 
     let out_dir = opts.output_dir();
     std::fs::create_dir_all(&out_dir).map_err(|e| RenderError::io(&out_dir, e))?;
     let mut offscreen = Offscreen::new(opts.size.width, opts.size.height)?;
 
-    let frame_rate = info
-        .as_ref()
-        .map(|i| i.frame_rate)
-        .filter(|r| *r > 0.0 && r.is_finite())
-        .unwrap_or(30.0);
+    let frame_rate = info.as_ref().map_or(30.0, |i| i.frame_rate);
     let name = info
         .as_ref()
         .map(|i| i.name.clone())
@@ -198,7 +215,7 @@ pub fn render_run_with_progress(
     let mut result = Ok(());
     for (done, (n, path)) in frames.iter().enumerate() {
         let step = (|| -> Result<(), RenderError> {
-            let mesh = read_obj(path)?;
+            let mesh = check.read(path)?;
             let normals = smooth_normals(&mesh.positions, &mesh.indices);
             let pinned: Vec<usize> = grabbed
                 .iter()
@@ -282,9 +299,10 @@ fn dot_radius(particle_radius: f32, mesh: &ObjMesh) -> f32 {
     }
 }
 
-/// A file-name-safe version of a scene name.
+/// A file-name-safe version of a scene name (at most 100 characters).
 fn sanitize(name: &str) -> String {
     name.chars()
+        .take(100)
         .map(|c| {
             if c.is_alphanumeric() || c == '-' || c == '_' {
                 c

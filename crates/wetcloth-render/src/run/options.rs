@@ -79,15 +79,42 @@ pub struct RenderOptions {
     /// How wet the cloth looks, 0 (dry) to 1 (wet: darker, glossier).
     #[cfg_attr(
         feature = "clap",
-        arg(long, value_name = "0..1", default_value_t = 1.0)
+        arg(long, value_name = "0..1", default_value_t = 1.0, value_parser = parse_wetness)
     )]
     pub wetness: f32,
-    /// Also encode an MP4 when ffmpeg is on the PATH.
-    #[cfg_attr(feature = "clap", arg(long = "no-video", action = clap::ArgAction::SetFalse))]
+    /// Also encode an MP4 when ffmpeg is on the PATH (default true; `--no-video` turns it off).
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long = "no-video",
+            action = clap::ArgAction::SetFalse,
+            help = "Do not encode an MP4 (by default one is made when ffmpeg is on the PATH)"
+        )
+    )]
     pub video: bool,
-    /// Mark the grabbed particles (red pins).
-    #[cfg_attr(feature = "clap", arg(long = "no-grabs", action = clap::ArgAction::SetFalse))]
+    /// Mark the grabbed particles with red pins (default true; `--no-grabs` turns it off).
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long = "no-grabs",
+            action = clap::ArgAction::SetFalse,
+            help = "Do not mark the grabbed particles (by default they get red pins)"
+        )
+    )]
     pub show_grabs: bool,
+}
+
+/// Parses `--wetness`: a number from 0 (dry) to 1 (wet); NaN and values outside are refused.
+pub fn parse_wetness(s: &str) -> Result<f32, String> {
+    let v: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number: expected 0 (dry) to 1 (wet)"))?;
+    if v.is_finite() && (0.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{s} is out of range: allowed 0 (dry) to 1 (wet)"))
+    }
 }
 
 impl RenderOptions {
@@ -178,5 +205,53 @@ mod tests {
             .err()
             .unwrap();
         assert!(err.to_string().contains("WIDTHxHEIGHT"), "{err}");
+    }
+
+    /// Found from outside: `--wetness nan` was accepted (and drew NaN colours).
+    #[cfg(feature = "clap")]
+    #[test]
+    fn wetness_nan_and_out_of_range_are_refused() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            opts: RenderOptions,
+        }
+        for bad in ["nan", "NaN", "inf", "-0.1", "1.5", "wet"] {
+            let err = Cli::try_parse_from(["render", "runs/a", &format!("--wetness={bad}")])
+                .err()
+                .unwrap_or_else(|| panic!("--wetness {bad} accepted"));
+            assert!(err.to_string().contains("0 (dry) to 1 (wet)"), "{err}");
+        }
+        assert_eq!(parse_wetness("0").unwrap(), 0.0);
+        assert_eq!(parse_wetness("1").unwrap(), 1.0);
+    }
+
+    /// Found from outside: the help of `--no-video` and `--no-grabs` described the opposite
+    /// of what they do ("Also encode an MP4", "Mark the grabbed particles").
+    #[cfg(feature = "clap")]
+    #[test]
+    fn the_help_of_the_no_flags_says_what_they_turn_off() {
+        use clap::{CommandFactory, Parser};
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            opts: RenderOptions,
+        }
+        let cmd = Cli::command();
+        let help = |id: &str| {
+            cmd.get_arguments()
+                .find(|a| a.get_id() == id)
+                .and_then(|a| a.get_help())
+                .map(|h| h.to_string())
+                .unwrap()
+        };
+        let video = help("video");
+        assert!(video.starts_with("Do not encode an MP4"), "{video}");
+        let grabs = help("show_grabs");
+        assert!(
+            grabs.starts_with("Do not mark the grabbed particles"),
+            "{grabs}"
+        );
     }
 }
