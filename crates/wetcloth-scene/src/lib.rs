@@ -85,13 +85,54 @@ impl Scene {
     }
 }
 
+/// The largest scene file [`load`] reads, bytes (16 MiB; the shipped scenes are a few
+/// kilobytes, and a grab with a key per frame of a long run a few hundred).
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 /// Reads and validates the scene file at `path`. The scene's name defaults to the file stem.
+///
+/// At most [`MAX_SCENE_BYTES`] are read, so a path such as `/dev/zero` is refused rather than
+/// read forever; pipes (`<(...)`) work. Text that is not UTF-8 is refused at its line and
+/// column.
 pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+    use std::io::Read;
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+    let read_error = |source| SceneError::Read {
         path: path.display().to_string(),
         source,
-    })?;
+    };
+    let file = std::fs::File::open(path).map_err(read_error)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_SCENE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(read_error)?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
+        return Err(read_error(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "larger than the {} MiB a scene file may have (is it a scene file?)",
+                MAX_SCENE_BYTES >> 20
+            ),
+        )));
+    }
+    let text = match String::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let at = e.utf8_error().valid_up_to();
+            let byte = e.as_bytes()[at];
+            let lossy = String::from_utf8_lossy(e.as_bytes());
+            return Err(SceneError::Syntax {
+                at: Box::new(Location::of_span(
+                    &path.display().to_string(),
+                    &lossy,
+                    at..at + 1,
+                )),
+                message: format!(
+                    "not UTF-8 text: byte 0x{byte:02x} here (scene files are UTF-8 TOML)"
+                ),
+            });
+        }
+    };
     parse(&text, path)
 }
 
