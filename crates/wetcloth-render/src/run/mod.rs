@@ -21,7 +21,7 @@ use std::time::Instant;
 pub use frames::{FrameSelection, list_frames};
 pub use framing::CameraSpec;
 pub use input::{ColliderInfo, ObjMesh, RunInfo, read_obj, read_run_info};
-pub use options::{ImageSize, RenderOptions};
+pub use options::{ImageSize, RenderOptions, parse_wetness};
 pub use video::ffmpeg_available;
 
 use crate::camera::Camera;
