@@ -419,7 +419,7 @@ fn runs_that_cannot_fit_are_refused_before_anything_is_written() {
     let thick = write(
         &dir,
         "thick.toml",
-        "[cloth]\nresolution = [400, 400]\nsize = [0.001, 0.001]\nthickness = 0.01\n",
+        "[cloth]\nresolution = [400, 400]\nsize = [0.001, 0.001]\nthickness = 0.01\nposition = [0, 0.01, 0]\n",
     );
     let o = wetcloth(&["run", &thick, "--out", out.to_str().unwrap()], &[]);
     let err = stderr(&o);
@@ -567,4 +567,23 @@ fn the_docs_list_every_metrics_column() {
             "{doc} lacks the full header"
         );
     }
+}
+
+/// Found from outside: a plane 10 km above the cloth gave exit 0 and a cloth flung 2000 km.
+/// A cloth that starts inside a collider is bad input (exit 2), located, with nothing written.
+#[test]
+fn a_cloth_inside_a_collider_is_refused_before_the_run() {
+    let dir = scratch("inside");
+    let scene = write(
+        &dir,
+        "above.toml",
+        "[simulation]\nduration = 0.1\n\n[[collider]]\nshape = \"plane\"\npoint = [0, 10000, 0]\n",
+    );
+    let out = dir.join("out");
+    let o = wetcloth(&["run", &scene, "--out", out.to_str().unwrap()], &[]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("above.toml:6:9: collider[0].point"), "{err}");
+    assert!(err.contains("10000 m inside"), "{err}");
+    assert!(!out.exists());
 }

@@ -25,6 +25,7 @@
 mod error;
 mod keys;
 mod raw;
+mod start;
 mod write;
 
 pub use error::{Location, SceneError};
@@ -70,6 +71,74 @@ impl Scene {
     /// The scene with every key explicit, as [`to_toml`] writes it.
     pub fn to_toml(&self) -> String {
         to_toml(&self.name, &self.config)
+    }
+
+    /// Checks that the cloth starts clear of every collider (its particles' collision spheres
+    /// outside every solid) and within 1e4 m above its sticking plane (the first plane).
+    /// The error names the collider (`collider[1].center`), at its line, and says how far
+    /// inside the cloth is. [`parse`] and [`load`] call it; a scene built in code may.
+    pub fn check_start(&self) -> Result<(), SceneError> {
+        let doc = self
+            .source
+            .as_ref()
+            .and_then(|(_, text)| toml::de::DeTable::parse(text).ok());
+        let given = |i: usize, k: &str| {
+            doc.as_ref().is_some_and(|doc| {
+                keys::locate(doc, &format!("collider[{i}].{k}")).is_some_and(|(_, exact)| exact)
+            })
+        };
+        let Err(p) = start::check(&self.config, given) else {
+            return Ok(());
+        };
+        let key = format!("collider[{}].{}", p.collider, p.key);
+        let shape_keys: &[&str] = match self.config.colliders[p.collider].shape {
+            wetcloth::Shape::Plane { .. } => &["point", "normal"],
+            wetcloth::Shape::Sphere { .. } => &["center", "radius"],
+            wetcloth::Shape::Box { .. } => &["center", "half_extents"],
+        };
+        Err(match &self.source {
+            Some((file, text)) => {
+                let placed = |k: &str| format!("collider[{}].{k}", p.collider);
+                // The key itself, else the collider's other key that places it, else its
+                // table (the value then is the default).
+                let found = doc.as_ref().and_then(|doc| {
+                    std::iter::once(p.key)
+                        .chain(shape_keys.iter().copied())
+                        .find_map(|k| {
+                            keys::locate(doc, &placed(k))
+                                .filter(|(_, exact)| *exact)
+                                .map(|(span, _)| (placed(k), span, true))
+                        })
+                        .or_else(|| {
+                            keys::locate(doc, &key).map(|(span, _)| (key.clone(), span, false))
+                        })
+                });
+                match found {
+                    Some((key, span, exact)) => SceneError::Invalid {
+                        value: if exact {
+                            text.get(span.clone()).unwrap_or("?").trim().to_string()
+                        } else {
+                            "(default)".into()
+                        },
+                        at: Box::new(Location::of_span(file, text, span)),
+                        key,
+                        message: p.message,
+                    },
+                    None => SceneError::Invalid {
+                        at: Box::new(Location::file_only(file)),
+                        key,
+                        value: "(default)".into(),
+                        message: p.message,
+                    },
+                }
+            }
+            None => SceneError::Invalid {
+                at: Box::new(Location::file_only(&format!("scene `{}`", self.name))),
+                key,
+                value: "(as configured)".into(),
+                message: p.message,
+            },
+        })
     }
 
     /// Turns a [`ConfigError`] about this scene's configuration (from [`SimConfig::validate`] or
@@ -150,11 +219,9 @@ pub fn parse(text: &str, file: &Path) -> Result<Scene, SceneError> {
         config,
         source: Some((file_label, text.to_string())),
     };
-    scene
-        .config
-        .validate()
-        .map_err(|e| scene.locate(&e))
-        .map(|()| scene)
+    scene.config.validate().map_err(|e| scene.locate(&e))?;
+    scene.check_start()?;
+    Ok(scene)
 }
 
 /// Checks a scene name: letters, digits, `-`, `_` and `.`, not empty and not starting with `.`

@@ -98,7 +98,8 @@ fn tiny_and_huge_normals_are_directions_and_only_zero_is_refused() {
         assert!((normal.length() - 1.0).abs() < 1e-12, "{n}: {normal:?}");
         assert!(normal.is_finite());
     }
-    let text = "[[collider]]\nshape = \"plane\"\nnormal = [1e-200, 1e-200, 0]\n";
+    let text =
+        "[[collider]]\nshape = \"plane\"\npoint = [-1, -1, 0]\nnormal = [1e-200, 1e-200, 0]\n";
     let s = parse(text, "s.toml".as_ref()).unwrap();
     let Shape::Plane { normal, .. } = s.config.colliders[0].shape else {
         panic!()
