@@ -32,8 +32,8 @@ pub use renderer::{
 };
 pub use run::{
     CameraSpec, ColliderInfo, FrameSelection, ImageSize, ObjMesh, RenderOptions, RenderSummary,
-    RunInfo, VideoOutcome, ffmpeg_available, list_frames, parse_wetness, read_obj, read_run_info,
-    render_run, render_run_with_progress,
+    RunCheck, RunInfo, VideoOutcome, check_run, ffmpeg_available, list_frames, parse_wetness,
+    read_obj, read_run_info, render_run, render_run_with_progress,
 };
 pub use wgpu;
 

@@ -15,7 +15,7 @@ mod options;
 mod video;
 
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 pub use frames::{FrameSelection, list_frames};
@@ -81,6 +81,46 @@ impl fmt::Display for RenderSummary {
             VideoOutcome::Disabled => write!(f, "video: not asked for"),
         }
     }
+}
+
+/// What [`check_run`] found in a run folder.
+#[derive(Clone, Debug)]
+pub struct RunCheck {
+    /// `run.json`, when there is one.
+    pub info: Option<RunInfo>,
+    /// Frame files read.
+    pub frames: usize,
+    /// Vertices of every frame.
+    pub vertices: usize,
+    /// Triangles of every frame.
+    pub triangles: usize,
+}
+
+/// Reads and checks everything [`render_run`] reads, without a graphics device: `run.json`,
+/// the frame list (every frame `run.json` counts must be there), and every frame (each a sound
+/// mesh of the run's cloth, see `read_obj` and docs/rendering.md). The error is the one
+/// `render_run` would give.
+pub fn check_run(run_dir: &Path) -> Result<RunCheck, RenderError> {
+    let info = read_run_info(run_dir)?;
+    let all = list_frames(run_dir)?;
+    if all.is_empty() {
+        return Err(RenderError::NoFrames(run_dir.to_path_buf()));
+    }
+    if let Some(written) = info.as_ref().and_then(|i| i.frames) {
+        frames::check_complete(run_dir, &all, written)?;
+    }
+    let mut check = FrameCheck::new(info.as_ref());
+    let mut size = (0, 0);
+    for (_, path) in &all {
+        let mesh = check.read(path)?;
+        size = (mesh.positions.len(), mesh.indices.len() / 3);
+    }
+    Ok(RunCheck {
+        info,
+        frames: all.len(),
+        vertices: size.0,
+        triangles: size.1,
+    })
 }
 
 /// Renders a run's frames to PNGs (and an MP4 when ffmpeg is on the PATH). See
