@@ -48,7 +48,7 @@ impl FromStr for ImageSize {
     }
 }
 
-/// What [`render_run`] does. Every field has a command-line form (with the `clap` feature the
+/// What [`render_run`](crate::render_run) does. Every field has a command-line form (with the `clap` feature the
 /// struct derives `clap::Args`, so a CLI can `#[command(flatten)]` it).
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "clap", derive(clap::Args))]
