@@ -42,7 +42,9 @@ pub struct BenchArgs {
           value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub threads: Option<Vec<u32>>,
 
-    /// Seconds of timed windows per measurement (after a warm-up of a fifth of that).
+    /// Seconds of timed windows per measurement, after a warm-up of a fifth of that: each
+    /// measurement takes about 1.2 S, or one step per window when a step is slower than that
+    /// (plus building the cloth).
     #[arg(long, default_value_t = 2.0, value_name = "S",
           value_parser = parse_seconds)]
     pub seconds: f64,
@@ -95,6 +97,8 @@ pub struct Measurement {
     pub windows: u32,
     /// Steps in the timed windows.
     pub steps: u64,
+    /// Wall-clock time of the warm-up and the windows, s (bounded by about 1.2 `--seconds`).
+    pub measured_seconds: f64,
     /// The thesis' frame rate for this particle count (table 4.2), if it lists it.
     pub thesis_steps_per_second: Option<f64>,
 }
@@ -164,24 +168,33 @@ fn measure(
             frames: 0,
             dir: PathBuf::from("."),
         };
-        // Warm-up: also calibrates how many steps fill one window.
+        // Every window and the warm-up stop at their time, however fast or slow the steps:
+        // steps go in chunks of about a twentieth of a window, so a window overruns by at
+        // most a chunk (or one step when a step takes longer).
+        let window = seconds / WINDOWS as f64;
         let warm = Duration::from_secs_f64(seconds / 5.0);
         let start = Instant::now();
-        let mut steps = 0u64;
-        let mut chunk = 16u64;
+        let mut chunk = 1u64;
         while start.elapsed() < warm {
+            let t = Instant::now();
             sim.advance(chunk).map_err(blow_up)?;
-            steps += chunk;
-            chunk = (chunk * 2).min(4096);
+            if t.elapsed().as_secs_f64() < window / 40.0 {
+                chunk *= 2;
+            }
         }
-        let rate = steps as f64 / start.elapsed().as_secs_f64();
-        let per_window = ((rate * seconds / WINDOWS as f64) as u64).max(1);
         let mut rates = Vec::with_capacity(WINDOWS as usize);
+        let mut steps = 0u64;
         for _ in 0..WINDOWS {
             let t = Instant::now();
-            sim.advance(per_window).map_err(blow_up)?;
-            rates.push(per_window as f64 / t.elapsed().as_secs_f64());
+            let mut done = 0u64;
+            while t.elapsed().as_secs_f64() < window {
+                sim.advance(chunk).map_err(blow_up)?;
+                done += chunk;
+            }
+            rates.push(done as f64 / t.elapsed().as_secs_f64());
+            steps += done;
         }
+        let measured_seconds = start.elapsed().as_secs_f64();
         rates.sort_by(f64::total_cmp);
         let median = rates[rates.len() / 2];
         Ok(Measurement {
@@ -196,7 +209,8 @@ fn measure(
             memory_bytes: sim.memory_bytes(),
             steps_per_second_range: [rates[0], rates[rates.len() - 1]],
             windows: WINDOWS,
-            steps: per_window * WINDOWS as u64,
+            steps,
+            measured_seconds,
             thesis_steps_per_second: THESIS_TABLE_4_2
                 .iter()
                 .find(|(n, _)| *n == particles)

@@ -25,6 +25,22 @@ pub enum CliError {
     /// The run could not be set up (threads, an invalid built-in configuration). Exit code 1.
     #[error("{0}")]
     Setup(String),
+    /// Bad input other than a scene file: an environment variable, options that contradict
+    /// each other, a run that cannot fit the machine (refused before anything is written).
+    /// Exit code 2.
+    #[error("{0}")]
+    Usage(String),
+    /// The run was stopped by Ctrl-C or a termination signal after its last whole frame.
+    /// Exit code 130.
+    #[error("interrupted at t = {time} s after {frames} frame(s); they are in {}, and run.json says \"interrupted\"", dir.display())]
+    Interrupted {
+        /// Frames written.
+        frames: u64,
+        /// Simulated time of the last frame written, s.
+        time: f64,
+        /// The output directory.
+        dir: PathBuf,
+    },
     /// An output could not be written. Exit code 1.
     #[error("cannot write {}: {source}", path.display())]
     Output {
@@ -37,10 +53,12 @@ pub enum CliError {
 }
 
 impl CliError {
-    /// The process exit code: 2 for bad input, 1 for a failed run.
+    /// The process exit code: 2 for bad input, 1 for a failed run, 130 for an interrupted
+    /// one.
     pub fn exit_code(&self) -> u8 {
         match self {
-            CliError::Scene(_) => 2,
+            CliError::Scene(_) | CliError::Usage(_) => 2,
+            CliError::Interrupted { .. } => 130,
             CliError::BlowUp { .. }
             | CliError::Output { .. }
             | CliError::Setup(_)

@@ -7,11 +7,15 @@
 
 mod bench;
 mod error;
+mod estimate;
+mod interrupt;
 mod render;
 mod run;
+mod threads;
 mod view;
 
 use clap::{Parser, Subcommand};
+use error::CliError;
 use std::process::ExitCode;
 
 /// Wet cloth that sticks: a simulator of wet cloth and the air trapped under it
@@ -22,6 +26,11 @@ struct Cli {
     /// No progress bar and no summary; errors and warnings still go to stderr.
     #[arg(long, short, global = true)]
     quiet: bool,
+
+    /// Worker threads for the simulation of `run` and `view`, and the thread count of `bench`
+    /// (default: all cores, or RAYON_NUM_THREADS). Results do not depend on it.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=threads::MAX_THREADS as i64))]
+    threads: Option<u32>,
 
     #[command(subcommand)]
     command: Command,
@@ -45,27 +54,45 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    if let Command::Run(run::RunArgs {
-        threads: Some(n), ..
-    }) = &cli.command
-        && let Err(e) = rayon::ThreadPoolBuilder::new()
-            .num_threads(*n as usize)
-            .build_global()
-    {
-        eprintln!("wetcloth: warning: cannot set up {n} threads: {e}");
-    }
-    let result = match &cli.command {
-        Command::Run(args) => run::run(args, cli.quiet),
-        Command::Bench(args) => bench::bench(args, cli.quiet),
-        Command::Render(opts) => render::render(opts, cli.quiet),
-        Command::Plot(args) => render::plot(args, cli.quiet),
-        Command::View(args) => view::view(args),
-    };
-    match result {
+    match dispatch(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(e.exit_code())
         }
+    }
+}
+
+/// Sets up the thread pool for the commands that simulate, then runs the command.
+fn dispatch(mut cli: Cli) -> Result<(), CliError> {
+    let threads = cli.threads.map(|n| n as usize);
+    match &mut cli.command {
+        Command::Run(args) => {
+            let n = match (threads, args.threads.map(|n| n as usize)) {
+                (Some(a), Some(b)) if a != b => {
+                    return Err(CliError::Usage(format!(
+                        "--threads is given twice, as {a} and {b}: give it once"
+                    )));
+                }
+                (a, b) => a.or(b),
+            };
+            threads::start_pool(n)?;
+        }
+        Command::View(_) => {
+            threads::start_pool(threads)?;
+        }
+        Command::Bench(args) => {
+            if let Some(n) = threads {
+                args.threads.get_or_insert_with(|| vec![n as u32]);
+            }
+        }
+        Command::Render(_) | Command::Plot(_) => {}
+    }
+    match &cli.command {
+        Command::Run(args) => run::run(args, cli.quiet),
+        Command::Bench(args) => bench::bench(args, cli.quiet),
+        Command::Render(opts) => render::render(opts, cli.quiet),
+        Command::Plot(args) => render::plot(args, cli.quiet),
+        Command::View(args) => view::view(args),
     }
 }

@@ -3,20 +3,28 @@
 //! The run directory holds `frames/frame_NNNN.obj` (one mesh per written frame), `metrics.csv`
 //! (one row per frame), `scene.toml` (the scene with every key explicit) and `run.json`. Frame
 //! `k` is the state at the first step whose time is at least `k / frame_rate`; frame 0 is the
-//! state at t = 0. Every file is complete on disk as soon as it is named: frames are written to
-//! a temporary name and renamed, metrics rows are flushed one by one, so a run that blows up (or
-//! is interrupted) leaves a complete prefix.
+//! state at t = 0. Every file is complete on disk as soon as it is named: frames, `scene.toml`
+//! and `run.json` are written to `NAME.part` (never following a link left there) and renamed,
+//! metrics rows are flushed one by one, so a run that blows up (or is interrupted) leaves a
+//! complete prefix. `run.json` is written first (status `running`), then after every frame, and
+//! last with how the run ended: `complete`, `interrupted` (Ctrl-C, SIGTERM: exit 130) or
+//! `failed` (with the error), with the frames written and the time reached.
 
 use crate::error::CliError;
+use crate::estimate::{self, Available};
+use crate::interrupt::Interrupt;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::fs::{self, File};
+use std::fs;
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use wetcloth::metrics::COLUMNS;
 use wetcloth::{Real, SimConfig, Simulation};
-use wetcloth_export::{MetricsCsv, RunInfo, frame_file_name, is_frame_file_name, write_obj};
+use wetcloth_export::{
+    MetricsCsv, RunInfo, RunStatus, create_fresh, frame_file_name, is_frame_file_name,
+    write_atomically, write_obj,
+};
 use wetcloth_scene::Scene;
 
 /// Arguments of `wetcloth run`.
@@ -33,9 +41,15 @@ pub struct RunArgs {
     pub out: Option<PathBuf>,
 
     /// Worker threads for the simulation (default: all cores, or RAYON_NUM_THREADS). Results do
-    /// not depend on it.
+    /// not depend on it. May also be given before the command: `wetcloth --threads N run`.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub threads: Option<u32>,
+
+    /// Run even when the estimate says the run needs more memory or disk than this machine
+    /// has (the estimate is printed before large runs; without this flag such a run is
+    /// refused before anything is written).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Units of the metrics columns, for the summary.
@@ -70,6 +84,16 @@ pub fn frame_step(k: u64, frame_rate: Real, dt: Real) -> u64 {
 /// Fraction of a step by which a step time may fall short of a frame time and still count.
 const STEP_TOLERANCE: Real = 1e-6;
 
+/// Wall-clock time one call to `Simulation::advance` aims at, s: short enough that Ctrl-C and
+/// the progress bar answer at once, long enough that the calls cost nothing.
+const CHUNK_SECONDS: f64 = 0.1;
+
+/// How a run that did not fail ended.
+enum Ending {
+    Complete,
+    Interrupted,
+}
+
 /// Runs `wetcloth run`.
 pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
     let scene = match &args.scene {
@@ -81,6 +105,18 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&scene.name));
     let config = scene.config.clone();
+
+    // What the run needs, before anything is allocated or written.
+    let est = estimate::estimate(&config, rayon::current_num_threads());
+    if !args.force
+        && let Some(why) = estimate::refusal(&est, Available::here(&dir), &config)
+    {
+        return Err(CliError::Usage(why));
+    }
+    if est.is_large() && !quiet {
+        eprintln!("wetcloth: {} needs {}", scene.name, est.summary());
+    }
+
     let mut sim = Simulation::new(config.clone()).map_err(|e| scene.locate(&e))?;
 
     let dt = config.simulation.time_step;
@@ -91,67 +127,118 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
              limit of {stable:.3e} s; the run will probably blow up"
         );
     }
+    let interrupt = Interrupt::install();
 
-    let frames_dir = dir.join("frames");
-    prepare_dir(&frames_dir)?;
-    let scene_path = dir.join("scene.toml");
-    fs::write(&scene_path, scene.to_toml()).map_err(CliError::output(&scene_path))?;
-    let csv_path = dir.join("metrics.csv");
-    let csv_file = File::create(&csv_path).map_err(CliError::output(&csv_path))?;
-    let mut csv = MetricsCsv::new(BufWriter::new(csv_file)).map_err(CliError::output(&csv_path))?;
+    // run.json first: from now on it says a run is writing here (an earlier run's
+    // "complete" must not outlive the frames removed next).
     let json_path = dir.join("run.json");
-
-    let last = last_frame(&config);
-    let rate = config.simulation.frame_rate;
-    let total_steps = frame_step(last, rate, dt);
-    let progress = progress_bar(total_steps, quiet);
-    let grid = sim.grid().clone();
-    let uvs = grid.uvs();
-
-    let start = Instant::now();
-    let mut write_frame = |sim: &Simulation, k: u64| -> Result<(), CliError> {
-        let path = frames_dir.join(frame_file_name(k));
-        let part = frames_dir.join(format!("{}.part", frame_file_name(k)));
-        let normals = grid.vertex_normals(sim.positions());
-        let file = File::create(&part).map_err(CliError::output(&part))?;
-        let mut w = BufWriter::new(file);
-        write_obj(&mut w, &grid, sim.positions(), &normals, &uvs)
-            .and_then(|()| w.flush())
-            .map_err(CliError::output(&part))?;
-        drop(w);
-        fs::rename(&part, &path).map_err(CliError::output(&path))?;
-        csv.write_row(k, &sim.metrics())
-            .map_err(CliError::output(&csv_path))?;
-        write_run_json(&json_path, &scene.name, &config, k + 1, k == last)
+    let info = |frames: u64, status: RunStatus, time: Real| {
+        RunInfo::new(&scene.name, &config, frames, false).with_status(status, time)
     };
+    let frames_dir = dir.join("frames");
+    fs::create_dir_all(&frames_dir).map_err(CliError::output(&frames_dir))?;
+    write_run_json(&json_path, &info(0, RunStatus::Running, 0.0))?;
 
-    write_frame(&sim, 0)?;
-    for k in 1..=last {
-        let target = frame_step(k, rate, dt);
-        while sim.step_count() < target {
-            // In chunks, so the progress bar moves during long frames.
-            let chunk = (target - sim.step_count()).min(2048);
-            if let Err(error) = sim.advance(chunk) {
-                progress.abandon();
-                return Err(CliError::BlowUp {
-                    error,
-                    frames: k,
-                    dir,
-                });
-            }
-            progress.set_position(sim.step_count());
+    // How far the run got: frames written and the time of the last.
+    let mut written = 0u64;
+    let mut time: Real = 0.0;
+    let progress = progress_bar(0, quiet);
+    let start = Instant::now();
+    let body = (|| -> Result<Ending, CliError> {
+        prepare_dir(&frames_dir)?;
+        let scene_path = dir.join("scene.toml");
+        let toml = scene.to_toml();
+        write_atomically(&scene_path, |w| w.write_all(toml.as_bytes()))
+            .map_err(CliError::output(&scene_path))?;
+        let csv_path = dir.join("metrics.csv");
+        let csv_file = create_fresh(&csv_path).map_err(CliError::output(&csv_path))?;
+        let mut csv =
+            MetricsCsv::new(BufWriter::new(csv_file)).map_err(CliError::output(&csv_path))?;
+
+        let last = last_frame(&config);
+        let rate = config.simulation.frame_rate;
+        progress.set_length(frame_step(last, rate, dt));
+        let grid = sim.grid().clone();
+        let uvs = grid.uvs();
+
+        let mut write_frame = |sim: &Simulation, k: u64| -> Result<(), CliError> {
+            let path = frames_dir.join(frame_file_name(k));
+            let normals = grid.vertex_normals(sim.positions());
+            write_atomically(&path, |w| {
+                write_obj(w, &grid, sim.positions(), &normals, &uvs)
+            })
+            .map_err(CliError::output(&path))?;
+            csv.write_row(k, &sim.metrics())
+                .map_err(CliError::output(&csv_path))?;
+            let status = if k == last {
+                RunStatus::Complete
+            } else {
+                RunStatus::Running
+            };
+            write_run_json(&json_path, &info(k + 1, status, sim.time()))
+        };
+
+        if interrupt.raised() {
+            return Ok(Ending::Interrupted);
         }
-        progress.set_position(sim.step_count());
-        progress.set_message(format!("frame {k}/{last}"));
-        write_frame(&sim, k)?;
-    }
-    progress.finish_and_clear();
-    let wall = start.elapsed();
+        write_frame(&sim, 0)?;
+        (written, time) = (1, sim.time());
+        let mut chunk = 1u64;
+        for k in 1..=last {
+            let target = frame_step(k, rate, dt);
+            while sim.step_count() < target {
+                if interrupt.raised() {
+                    return Ok(Ending::Interrupted);
+                }
+                // In chunks of about CHUNK_SECONDS, so the progress bar moves and Ctrl-C
+                // answers during long frames (the chunking does not change the results).
+                let steps = (target - sim.step_count()).min(chunk);
+                let t0 = Instant::now();
+                sim.advance(steps).map_err(|error| CliError::BlowUp {
+                    error,
+                    frames: written,
+                    dir: dir.clone(),
+                })?;
+                let took = t0.elapsed().as_secs_f64();
+                if took < 0.5 * CHUNK_SECONDS && steps == chunk {
+                    chunk = (chunk * 2).min(1 << 16);
+                } else if took > 2.0 * CHUNK_SECONDS {
+                    chunk = (chunk / 2).max(1);
+                }
+                progress.set_position(sim.step_count());
+            }
+            progress.set_message(format!("frame {k}/{last}"));
+            write_frame(&sim, k)?;
+            (written, time) = (k + 1, sim.time());
+        }
+        Ok(Ending::Complete)
+    })();
 
-    if !quiet {
-        print_summary(&scene, &sim, &dir, last + 1, wall);
+    match body {
+        Ok(Ending::Complete) => {
+            progress.finish_and_clear();
+            if !quiet {
+                print_summary(&scene, &sim, &dir, written, start.elapsed());
+            }
+            Ok(())
+        }
+        Ok(Ending::Interrupted) => {
+            progress.abandon();
+            write_run_json(&json_path, &info(written, RunStatus::Interrupted, time))?;
+            Err(CliError::Interrupted {
+                frames: written,
+                time,
+                dir,
+            })
+        }
+        Err(e) => {
+            progress.abandon();
+            // Say why in run.json; if even that cannot be written, the first error stands.
+            let failed = info(written, RunStatus::Running, time).failed(e.to_string());
+            let _ = write_run_json(&json_path, &failed);
+            Err(e)
+        }
     }
-    Ok(())
 }
 
 /// Creates `frames_dir` (and its parent) and removes frame files an earlier run left there, so a
@@ -165,7 +252,8 @@ fn prepare_dir(frames_dir: &Path) -> Result<(), CliError> {
         let name = name.to_string_lossy();
         let stale =
             is_frame_file_name(&name) || name.strip_suffix(".part").is_some_and(is_frame_file_name);
-        if stale && entry.file_type().is_ok_and(|t| t.is_file()) {
+        // Files and links (a link itself, never what it points to); not directories.
+        if stale && entry.file_type().is_ok_and(|t| !t.is_dir()) {
             fs::remove_file(entry.path()).map_err(CliError::output(entry.path()))?;
         }
     }
@@ -173,15 +261,8 @@ fn prepare_dir(frames_dir: &Path) -> Result<(), CliError> {
 }
 
 /// Writes `run.json` (always complete, see `write_run_json_file`).
-fn write_run_json(
-    path: &Path,
-    name: &str,
-    config: &SimConfig,
-    frames: u64,
-    complete: bool,
-) -> Result<(), CliError> {
-    let info = RunInfo::new(name, config, frames, complete);
-    wetcloth_export::write_run_json_file(path, &info).map_err(CliError::output(path))
+fn write_run_json(path: &Path, info: &RunInfo) -> Result<(), CliError> {
+    wetcloth_export::write_run_json_file(path, info).map_err(CliError::output(path))
 }
 
 /// A progress bar over the steps on stderr, or a hidden one when stderr is not a terminal or the

@@ -8,17 +8,22 @@
 //! - [`RunInfo`] and [`write_run_json`]: `run.json`, what a renderer needs to know about the
 //!   run (the cloth's layout, the colliders, the grabbed particles, the frame count).
 //!
+//! Files that must never be seen half written go through [`write_atomically`] (a temporary
+//! `NAME.part`, never followed if a stale link sits there, and a rename).
+//!
 //! Every number is written by [`number`]: the shortest text that parses back to the same `f64`
 //! (nothing is rounded), in scientific notation when very small or very large so that
 //! `1e-20` does not become twenty zeros.
 
+mod atomic;
 mod csv;
 mod obj;
 mod run_json;
 
+pub use atomic::{create_fresh, part_path, remove_if_present, write_atomically};
 pub use csv::{CSV_HEADER, MetricsCsv, csv_header};
 pub use obj::write_obj;
-pub use run_json::{RunInfo, write_run_json, write_run_json_file};
+pub use run_json::{RunInfo, RunStatus, write_run_json, write_run_json_file};
 
 /// `v` as the shortest decimal text that parses back to the same value (Rust's `{:?}`
 /// formatting of `f64`: `0.1`, `101325.0`, `1.5e-20`).

@@ -27,8 +27,21 @@ pub struct RunInfo {
     /// Frames written so far: `frame_0000.obj` up to `frames - 1`, and as many rows in
     /// `metrics.csv`.
     pub frames: u64,
-    /// Whether the run reached its last frame (false while running or after a blow-up).
+    /// Whether the run reached its last frame (false while running or after a blow-up);
+    /// `status` says more.
     pub complete: bool,
+    /// Where the run is: `"running"` (still writing, or killed: a run that is stopped any
+    /// other way says so), `"complete"`, `"interrupted"` (stopped by Ctrl-C or a termination
+    /// signal) or `"failed"` (a blow-up or an output error, see `error`). Absent in files of
+    /// older versions, which read as `"running"`.
+    #[serde(default)]
+    pub status: RunStatus,
+    /// Simulated time of the last frame written, s (0 before the first).
+    #[serde(default)]
+    pub time: Real,
+    /// Why the run failed (with `status = "failed"`); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
     /// The colliders, in scene order, each as the scene gives it with its `shape`:
     /// `{"shape": "plane", "point": [..], "normal": [..], "friction": ..}`,
     /// `{"shape": "sphere", "center": [..], "radius": .., ...}` or
@@ -39,8 +52,39 @@ pub struct RunInfo {
     pub grabs: Vec<[usize; 2]>,
 }
 
+/// Where a run is, the `status` of `run.json`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RunStatus {
+    /// Still writing frames; a folder left in this state by a run no longer running was
+    /// killed (`SIGKILL`, a power cut). Its frame files and metrics rows may be one ahead of
+    /// `frames`.
+    #[default]
+    Running,
+    /// Every frame was written.
+    Complete,
+    /// Stopped by Ctrl-C or a termination signal, after its last whole frame.
+    Interrupted,
+    /// Stopped by a blow-up or an output error (`error` says which).
+    Failed,
+}
+
+impl RunStatus {
+    /// The name written in `run.json`.
+    pub fn name(self) -> &'static str {
+        match self {
+            RunStatus::Running => "running",
+            RunStatus::Complete => "complete",
+            RunStatus::Interrupted => "interrupted",
+            RunStatus::Failed => "failed",
+        }
+    }
+}
+
 impl RunInfo {
-    /// The run information of scene `name` with configuration `config`, `frames` frames written.
+    /// The run information of scene `name` with configuration `config`, `frames` frames
+    /// written; `status` is `complete` or `running` as `complete` says, `time` 0 (see
+    /// [`RunInfo::with_status`]).
     pub fn new(name: &str, config: &SimConfig, frames: u64, complete: bool) -> Self {
         Self {
             name: name.to_string(),
@@ -52,9 +96,35 @@ impl RunInfo {
             duration: config.simulation.duration,
             frames,
             complete,
+            status: if complete {
+                RunStatus::Complete
+            } else {
+                RunStatus::Running
+            },
+            time: 0.0,
+            error: None,
             colliders: config.colliders.clone(),
             grabs: config.grabs.iter().map(|g| g.particle).collect(),
         }
+    }
+}
+
+impl RunInfo {
+    /// The same with `status` (and `complete` following it) and the simulated `time` of the
+    /// last frame written, s.
+    pub fn with_status(mut self, status: RunStatus, time: Real) -> Self {
+        self.status = status;
+        self.complete = status == RunStatus::Complete;
+        self.time = time;
+        self
+    }
+
+    /// The same as a failed run, with the error message.
+    pub fn failed(mut self, error: impl Into<String>) -> Self {
+        self.status = RunStatus::Failed;
+        self.complete = false;
+        self.error = Some(error.into());
+        self
     }
 }
 
@@ -65,12 +135,11 @@ pub fn write_run_json(mut w: impl Write, info: &RunInfo) -> io::Result<()> {
     w.flush()
 }
 
-/// Writes `run.json` at `path` through `path.json.part` and a rename, so a reader never sees it
-/// half written (a run rewrites it after every frame).
+/// Writes `run.json` at `path` through `run.json.part` and a rename
+/// ([`crate::write_atomically`]), so a reader never sees it half written (a run rewrites it
+/// after every frame).
 pub fn write_run_json_file(path: &std::path::Path, info: &RunInfo) -> io::Result<()> {
-    let part = path.with_extension("json.part");
-    write_run_json(io::BufWriter::new(std::fs::File::create(&part)?), info)?;
-    std::fs::rename(&part, path)
+    crate::write_atomically(path, |w| write_run_json(w, info))
 }
 
 #[cfg(test)]
@@ -98,5 +167,55 @@ mod tests {
         }
         let back: RunInfo = serde_json::from_slice(&out).unwrap();
         assert_eq!(back, RunInfo::new("thesis-demo", &cfg, 3, false));
+        assert_eq!(v["status"], "running");
+        assert_eq!(v["time"], 0.0);
+        assert!(v.get("error").is_none());
+    }
+
+    #[test]
+    fn status_time_and_error_say_how_far_a_run_got() {
+        let cfg = SimConfig::thesis_demo();
+        let json = |info: &RunInfo| {
+            let mut out = Vec::new();
+            write_run_json(&mut out, info).unwrap();
+            serde_json::from_slice::<serde_json::Value>(&out).unwrap()
+        };
+        let base = RunInfo::new("demo", &cfg, 7, false);
+        let v = json(&base.clone().with_status(RunStatus::Interrupted, 0.1));
+        assert_eq!(
+            (v["status"].as_str(), v["complete"].as_bool()),
+            (Some("interrupted"), Some(false))
+        );
+        assert_eq!(v["time"], 0.1);
+        let v = json(&base.clone().with_status(RunStatus::Complete, 3.0));
+        assert_eq!(
+            (v["status"].as_str(), v["complete"].as_bool()),
+            (Some("complete"), Some(true))
+        );
+        let v = json(
+            &base
+                .clone()
+                .with_status(RunStatus::Running, 0.5)
+                .failed("blew up"),
+        );
+        assert_eq!(
+            (v["status"].as_str(), v["error"].as_str()),
+            (Some("failed"), Some("blew up"))
+        );
+        for s in [
+            RunStatus::Running,
+            RunStatus::Complete,
+            RunStatus::Interrupted,
+            RunStatus::Failed,
+        ] {
+            assert_eq!(json(&base.clone().with_status(s, 0.0))["status"], s.name());
+        }
+        // A run.json of an older version (no status, time or error) still reads.
+        let mut old = json(&base);
+        let o = old.as_object_mut().unwrap();
+        o.remove("status");
+        o.remove("time");
+        let back: RunInfo = serde_json::from_value(old).unwrap();
+        assert_eq!(back.status, RunStatus::Running);
     }
 }

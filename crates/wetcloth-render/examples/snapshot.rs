@@ -1,7 +1,7 @@
 //! Renders the demo geometry (a satin square with a tent in the middle) to PNG files, dry and
 //! wet, with and without particle dots: `cargo run --release --example snapshot -- OUT_DIR`.
 
-use wetcloth_render::{Camera, MeshView, Offscreen, SceneView, Solid, tented_grid};
+use wetcloth_render::{Camera, MeshView, Offscreen, SceneView, collider_scene, tented_grid};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::path::PathBuf::from(
@@ -20,10 +20,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         indices: &indices,
     };
     let camera = Camera::framing([-0.15, 0.0, -0.15], [0.15, 0.07, 0.15]);
-    let solids = [Solid::Sphere {
-        center: [0.25, 0.04, -0.1],
-        radius: 0.04,
-    }];
+    let ball = wetcloth::Collider::sphere(wetcloth::Vec3::new(0.25, 0.04, -0.1), 0.04, 0.6);
+    let (_, solids) = collider_scene(&[ball]);
     for (name, wetness, dots) in [
         ("dry", 0.0, false),
         ("wet", 1.0, false),

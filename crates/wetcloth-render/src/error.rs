@@ -48,6 +48,27 @@ pub enum RenderError {
     /// A run directory without frames to render.
     #[error("no frames to render in {}: expected frames/frame_NNNN.obj (written by `wetcloth run`)", .0.display())]
     NoFrames(PathBuf),
+    /// A frame selection that matches none of a run's frames.
+    #[error(
+        "no frame of {} matches --frames {selection}: the run has {count} frame(s), numbered \
+         {first} to {last}",
+        dir.display()
+    )]
+    NoFramesSelected {
+        /// The run directory.
+        dir: PathBuf,
+        /// The selection, as written.
+        selection: String,
+        /// The first frame number found.
+        first: u64,
+        /// The last frame number found.
+        last: u64,
+        /// Frames found.
+        count: usize,
+    },
+    /// An option out of its range.
+    #[error("{0}")]
+    Option(String),
     /// Encoding a PNG failed.
     #[error("could not write {}: {message}", path.display())]
     Image {

@@ -24,15 +24,56 @@ mod run;
 
 pub use camera::Camera;
 pub use error::RenderError;
-pub use mesh::{Solid, smooth_normals, tented_grid};
+pub use mesh::{Solid, collider_scene, smooth_normals, tented_grid};
 pub use offscreen::{OFFSCREEN_DEPTH, OFFSCREEN_FORMAT, OFFSCREEN_SAMPLES, Offscreen};
 pub use plot::plot_run;
 pub use renderer::{
     ClothRenderer, GroundPlane, KEY_LIGHT_DIR, Material, MeshView, SceneView, srgb_to_linear,
 };
 pub use run::{
-    CameraSpec, ColliderInfo, FrameSelection, ImageSize, ObjMesh, RenderOptions, RenderSummary,
-    RunInfo, VideoOutcome, ffmpeg_available, list_frames, read_obj, read_run_info, render_run,
-    render_run_with_progress,
+    CameraSpec, FrameSelection, ImageSize, ObjMesh, RenderOptions, RenderSummary, RunCheck,
+    RunInfo, VideoOutcome, check_run, ffmpeg_available, list_frames, parse_wetness, read_obj,
+    read_run_info, render_run, render_run_with_progress,
 };
 pub use wgpu;
+
+/// Reads the text file at `path`, refusing anything but a regular file (a device such as
+/// `/dev/zero` never ends) and files over `limit` bytes, with the file named in the error.
+pub(crate) fn read_limited(path: &std::path::Path, limit: u64) -> Result<String, RenderError> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| RenderError::io(path, e))?;
+    let meta = file.metadata().map_err(|e| RenderError::io(path, e))?;
+    let refuse = |message: String| RenderError::Parse {
+        path: path.to_path_buf(),
+        line: None,
+        message,
+    };
+    if !meta.is_file() {
+        return Err(refuse("not a regular file".into()));
+    }
+    if meta.len() > limit {
+        return Err(refuse(format!(
+            "{} bytes is more than the {limit} bytes read from such a file",
+            meta.len()
+        )));
+    }
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| RenderError::io(path, e))?;
+    if bytes.len() as u64 > limit {
+        return Err(refuse(format!(
+            "more than the {limit} bytes read from such a file"
+        )));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        let line = bytes[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        RenderError::Parse {
+            path: path.to_path_buf(),
+            line: Some(line),
+            message: "not UTF-8 text".into(),
+        }
+    })
+}

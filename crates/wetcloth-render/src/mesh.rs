@@ -1,6 +1,8 @@
 //! CPU-side mesh helpers: smooth normals, and triangle meshes for the scene's solid colliders.
 
+use crate::renderer::GroundPlane;
 use glam::Vec3;
+use wetcloth::{Collider, Surface, SurfaceMesh};
 
 /// Area-weighted smooth vertex normals of a triangle mesh: each vertex gets the normalised sum
 /// of the (un-normalised) cross products of the triangles around it, so larger triangles count
@@ -24,99 +26,66 @@ pub fn smooth_normals(positions: &[[f32; 3]], indices: &[u32]) -> Vec<[f32; 3]> 
         .collect()
 }
 
-/// A solid obstacle drawn beside the cloth (the run's sphere and box colliders).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Solid {
-    /// A sphere, m.
-    Sphere {
-        /// Centre, m.
-        center: [f32; 3],
-        /// Radius, m.
-        radius: f32,
-    },
-    /// An axis-aligned box, m.
-    Box {
-        /// Centre, m.
-        center: [f32; 3],
-        /// Half the edge lengths along x, y and z, m.
-        half_extents: [f32; 3],
-    },
+/// A solid obstacle drawn beside the cloth: a triangle mesh with a normal per vertex, made from
+/// a collider's own description ([`wetcloth::Collider::surface`]), so every collider shape the
+/// core knows is drawn the same way.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Solid {
+    /// Vertex positions, m.
+    pub positions: Vec<[f32; 3]>,
+    /// Vertex normals (unit, outwards).
+    pub normals: Vec<[f32; 3]>,
+    /// Triangles, three indices each, counter-clockwise seen from outside.
+    pub indices: Vec<u32>,
 }
 
 impl Solid {
-    /// Axis-aligned bounds `(min, max)`.
-    pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
-        let (c, h) = match *self {
-            Solid::Sphere { center, radius } => (Vec3::from(center), Vec3::splat(radius)),
-            Solid::Box {
-                center,
-                half_extents,
-            } => (Vec3::from(center), Vec3::from(half_extents)),
-        };
-        ((c - h).to_array(), (c + h).to_array())
-    }
-
-    /// Appends this solid's triangles (flat-shaded box, smooth UV sphere) to a vertex list of
-    /// `(position, normal)` and an index list.
-    pub(crate) fn append_mesh(&self, verts: &mut Vec<[[f32; 3]; 2]>, indices: &mut Vec<u32>) {
-        match *self {
-            Solid::Sphere { center, radius } => {
-                // A UV sphere: 48 segments around, 24 rings from pole to pole.
-                let (seg, rings) = (48u32, 24u32);
-                let base = verts.len() as u32;
-                for r in 0..=rings {
-                    let theta = std::f32::consts::PI * r as f32 / rings as f32;
-                    for s in 0..=seg {
-                        let phi = std::f32::consts::TAU * s as f32 / seg as f32;
-                        let n = Vec3::new(
-                            theta.sin() * phi.cos(),
-                            theta.cos(),
-                            theta.sin() * phi.sin(),
-                        );
-                        let p = Vec3::from(center) + n * radius.abs();
-                        verts.push([p.to_array(), n.to_array()]);
-                    }
-                }
-                for r in 0..rings {
-                    for s in 0..seg {
-                        let a = base + r * (seg + 1) + s;
-                        let b = a + seg + 1;
-                        indices.extend_from_slice(&[a, a + 1, b, a + 1, b + 1, b]);
-                    }
-                }
-            }
-            Solid::Box {
-                center,
-                half_extents,
-            } => {
-                let c = Vec3::from(center);
-                let h = Vec3::from(half_extents).abs();
-                // Each face: its normal and two tangents with t1 x t2 = n (front side out).
-                for axis in 0..3 {
-                    for sign in [-1.0f32, 1.0] {
-                        let mut n = Vec3::ZERO;
-                        n[axis] = sign;
-                        let mut t1 = Vec3::ZERO;
-                        t1[(axis + 1) % 3] = 1.0;
-                        let t2 = n.cross(t1);
-                        let base = verts.len() as u32;
-                        for (u, v) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                            let p = c + (n + t1 * u + t2 * v) * h;
-                            verts.push([p.to_array(), n.to_array()]);
-                        }
-                        indices.extend_from_slice(&[
-                            base,
-                            base + 1,
-                            base + 2,
-                            base,
-                            base + 2,
-                            base + 3,
-                        ]);
-                    }
-                }
-            }
+    /// The solid of a collider's surface mesh.
+    pub fn from_surface(mesh: &SurfaceMesh) -> Self {
+        let f32s = |v: &wetcloth::Vec3| v.as_vec3().to_array();
+        Self {
+            positions: mesh.positions.iter().map(f32s).collect(),
+            normals: mesh.normals.iter().map(f32s).collect(),
+            indices: mesh.triangles.iter().flatten().copied().collect(),
         }
     }
+
+    /// Axis-aligned bounds `(min, max)` (a degenerate box at the origin when empty).
+    pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        bounds_of(&self.positions).unwrap_or(([0.0; 3], [0.0; 3]))
+    }
+
+    /// Appends this solid's triangles to a vertex list of `(position, normal)` and an index
+    /// list.
+    pub(crate) fn append_mesh(&self, verts: &mut Vec<[[f32; 3]; 2]>, indices: &mut Vec<u32>) {
+        let base = verts.len() as u32;
+        verts.extend(
+            self.positions
+                .iter()
+                .zip(&self.normals)
+                .map(|(p, n)| [*p, *n]),
+        );
+        indices.extend(self.indices.iter().map(|i| base + i));
+    }
+}
+
+/// The scene around the cloth from its colliders: the first plane as the ground (the thesis'
+/// table, drawn with its backdrop and shadows), every other collider as a solid.
+pub fn collider_scene(colliders: &[Collider]) -> (Option<GroundPlane>, Vec<Solid>) {
+    let mut ground = None;
+    let mut solids = Vec::new();
+    for c in colliders {
+        match c.surface() {
+            Surface::Plane { point, normal } => {
+                ground.get_or_insert(GroundPlane {
+                    point: point.as_vec3().to_array(),
+                    normal: normal.as_vec3().to_array(),
+                });
+            }
+            Surface::Mesh(m) => solids.push(Solid::from_surface(&m)),
+        }
+    }
+    (ground, solids)
 }
 
 /// A square cloth of `n` x `n` particles and side `size` (m) centred on the origin in the
@@ -184,11 +153,14 @@ mod tests {
     fn box_faces_point_outwards() {
         let mut v = Vec::new();
         let mut i = Vec::new();
-        Solid::Box {
-            center: [1.0, 2.0, 3.0],
-            half_extents: [0.5, 0.25, 1.0],
-        }
-        .append_mesh(&mut v, &mut i);
+        let cuboid = Collider::cuboid(
+            wetcloth::Vec3::new(1.0, 2.0, 3.0),
+            wetcloth::Vec3::new(0.5, 0.25, 1.0),
+            0.6,
+        );
+        let (ground, solids) = collider_scene(&[cuboid]);
+        assert!(ground.is_none());
+        solids[0].append_mesh(&mut v, &mut i);
         assert_eq!(v.len(), 24);
         for t in i.chunks_exact(3) {
             let [a, b, c] = [t[0], t[1], t[2]].map(|k| Vec3::from(v[k as usize][0]));
@@ -197,5 +169,20 @@ mod tests {
             assert!(n.dot(out) > 0.0);
             assert!(n.normalize().dot(Vec3::from(v[t[0] as usize][1])) > 0.999);
         }
+    }
+
+    /// The first plane is the ground, later planes are not drawn as solids, spheres are.
+    #[test]
+    fn colliders_become_the_ground_and_solids() {
+        let o = wetcloth::Vec3::ZERO;
+        let (ground, solids) = collider_scene(&[
+            Collider::sphere(wetcloth::Vec3::new(0.0, 1.0, 0.0), 0.5, 0.6),
+            Collider::plane(o, wetcloth::Vec3::Y, 0.6),
+            Collider::plane(wetcloth::Vec3::new(0.0, 2.0, 0.0), wetcloth::Vec3::X, 0.6),
+        ]);
+        assert_eq!(ground.unwrap().normal, [0.0, 1.0, 0.0]);
+        assert_eq!(solids.len(), 1);
+        let (lo, hi) = solids[0].bounds();
+        assert!((lo[1] - 0.5).abs() < 1e-6 && (hi[1] - 1.5).abs() < 1e-6);
     }
 }

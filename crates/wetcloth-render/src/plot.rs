@@ -11,7 +11,9 @@ use plotters::prelude::*;
 
 use crate::error::RenderError;
 
-/// Columns of `metrics.csv` (units: s, m^3, Pa, J, ratio, ratio, m, N).
+/// The columns of `metrics.csv` the plot reads (units: frame number, s, m^3, Pa, J, ratio,
+/// ratio, m, N). A run's `metrics.csv` has one more, `trapped_air` (m^3), which the plot does
+/// not draw; extra columns are ignored.
 pub const COLUMNS: [&str; 9] = [
     "frame",
     "time",
@@ -76,7 +78,8 @@ impl Metrics {
 
 /// Parses `metrics.csv` text; `path` only names the file in errors. The header must name every
 /// column of [`COLUMNS`] (in any order; other columns are ignored); every row must have as many
-/// fields as the header, each a number.
+/// fields as the header, each a number, and every `time` must be finite (a run never writes
+/// an infinite or NaN time; other columns may hold anything, non-finite values are not drawn).
 pub fn parse_metrics(text: &str, path: &Path) -> Result<Metrics, RenderError> {
     let err = |line: usize, message: String| RenderError::Parse {
         path: path.to_path_buf(),
@@ -113,6 +116,15 @@ pub fn parse_metrics(text: &str, path: &Path) -> Result<Metrics, RenderError> {
                 let v: f64 = field
                     .parse()
                     .map_err(|_| err(i + 1, format!("column {name}: {field:?} is not a number")))?;
+                if *name == "time" && !v.is_finite() {
+                    return Err(err(
+                        i + 1,
+                        format!(
+                            "column time: {field:?} is not a finite time (simulated seconds); \
+                             the file is damaged"
+                        ),
+                    ));
+                }
                 col.push(v);
             }
         }
@@ -123,9 +135,12 @@ pub fn parse_metrics(text: &str, path: &Path) -> Result<Metrics, RenderError> {
     Ok(m)
 }
 
-/// Reads and parses a `metrics.csv` file.
+/// The largest `metrics.csv` [`read_metrics`] reads, bytes (1 GiB: about five million rows).
+pub const MAX_METRICS_BYTES: u64 = 1 << 30;
+
+/// Reads and parses a `metrics.csv` file (at most [`MAX_METRICS_BYTES`]).
 pub fn read_metrics(path: &Path) -> Result<Metrics, RenderError> {
-    let text = std::fs::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
+    let text = crate::read_limited(path, MAX_METRICS_BYTES)?;
     parse_metrics(&text, path)
 }
 
@@ -203,23 +218,52 @@ fn register_font() {
     });
 }
 
-/// A y range covering `v` with a margin; a flat or empty series gets a range around its value.
-fn y_range(v: &[f64]) -> (f64, f64) {
+/// Largest magnitude an axis reaches: values beyond it are drawn at its edge. Far beyond
+/// anything a run writes, and small enough that an axis' span and its tick steps stay finite.
+const AXIS_LIMIT: f64 = 1e300;
+
+/// An axis range covering the finite values of `v` with a margin of `margin` of their span on
+/// each side; a flat or empty series gets a range around its value.
+///
+/// Every range it returns is safe for the chart library's tick search, which loops forever on
+/// an infinite span or on a span of a few ulps of its end points: the end points are finite
+/// and within [`AXIS_LIMIT`] (plus the margin), and the span is at least a millionth of the
+/// largest magnitude.
+fn axis_range(v: &[f64], margin: f64) -> (f64, f64) {
     let (lo, hi) = v
         .iter()
         .filter(|x| x.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+        .map(|x| x.clamp(-AXIS_LIMIT, AXIS_LIMIT))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
             (a.min(x), b.max(x))
         });
     if lo > hi {
         return (0.0, 1.0);
     }
     let span = hi - lo;
-    if span <= 1e-12 * lo.abs().max(1.0) {
-        let pad = (lo.abs() * 0.05).max(1e-3);
+    let magnitude = lo.abs().max(hi.abs());
+    if span <= 1e-6 * magnitude || span == 0.0 {
+        let pad = (magnitude * 0.05).max(1e-3);
         return (lo - pad, hi + pad);
     }
-    (lo - 0.08 * span, hi + 0.08 * span)
+    (lo - margin * span, hi + margin * span)
+}
+
+/// A y range covering `v` with a margin (see [`axis_range`]).
+fn y_range(v: &[f64]) -> (f64, f64) {
+    axis_range(v, 0.08)
+}
+
+/// The time axis: the run's first to last time, or one second from a lone row (see
+/// [`axis_range`]).
+fn time_range(t: &[f64]) -> (f64, f64) {
+    match axis_range(t, 0.0) {
+        (a, b) if t.iter().filter(|x| x.is_finite()).count() == 1 => {
+            let a = 0.5 * (a + b);
+            (a, a + 1.0_f64.max(a.abs() * 1e-3))
+        }
+        r => r,
+    }
 }
 
 /// Draws `metrics` as stacked panels into an RGB image with `title` on top.
@@ -236,11 +280,7 @@ pub fn draw_metrics(metrics: &Metrics, title: &str) -> Result<image::RgbImage, R
             .map_err(|e| plot_err(&e))?;
         let panels = body.split_evenly((PANELS.len(), 1));
         let t = &metrics.time;
-        let (t0, t1) = match (t.first(), t.last()) {
-            (Some(a), Some(b)) if b > a => (*a, *b),
-            (Some(a), _) => (*a, *a + 1.0),
-            _ => (0.0, 1.0),
-        };
+        let (t0, t1) = time_range(t);
         for (k, (area, panel)) in panels.iter().zip(&PANELS).enumerate() {
             let v = (panel.values)(metrics);
             let (y0, y1) = y_range(&v);
@@ -269,11 +309,13 @@ pub fn draw_metrics(metrics: &Metrics, title: &str) -> Result<image::RgbImage, R
                 .x_label_formatter(&|x| format_tick(*x, t0, t1))
                 .draw()
                 .map_err(|e| plot_err(&e))?;
+            // Points are kept inside the axes: a point far outside would be rasterised from
+            // a pixel coordinate near i32::MAX.
             let points = t
                 .iter()
                 .zip(&v)
                 .filter(|(a, b)| a.is_finite() && b.is_finite())
-                .map(|(a, b)| (*a, *b));
+                .map(|(a, b)| (a.clamp(t0, t1), b.clamp(y0, y1)));
             chart
                 .draw_series(LineSeries::new(points, panel.colour.stroke_width(2)))
                 .map_err(|e| plot_err(&e))?;
@@ -418,6 +460,116 @@ mod tests {
             "{e}"
         );
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Runs `f` on its own thread and fails the test if it takes longer than `seconds` (a
+    /// hang) or panics.
+    fn within<T: Send + 'static>(seconds: u64, f: impl FnOnce() -> T + Send + 'static) -> T {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let _ = tx.send(f());
+        });
+        rx.recv_timeout(std::time::Duration::from_secs(seconds))
+            .expect("finished in time, without a panic")
+    }
+
+    /// A metrics.csv whose `time` column is `times` and whose other columns are `value`.
+    fn csv_with(times: &[&str], value: &str) -> String {
+        let mut s = format!("{}\n", COLUMNS.join(","));
+        for (f, t) in times.iter().enumerate() {
+            s += &format!("{f},{t},{}\n", [value; 7].join(","));
+        }
+        s
+    }
+
+    /// Found from outside: `plot` spun at 100 % CPU forever on a time column holding `inf`
+    /// (the chart library's tick search never ends on an infinite axis). A run never writes
+    /// a non-finite time, so such a file is damaged: refused, naming the line.
+    #[test]
+    fn plot_refuses_an_infinite_time_instead_of_spinning() {
+        for bad in ["inf", "-inf", "infinity"] {
+            let text = csv_with(&["0", "0.5", bad], "1.0");
+            let e = within(30, move || {
+                parse_metrics(&text, Path::new("run/metrics.csv"))
+            })
+            .unwrap_err()
+            .to_string();
+            assert!(
+                e.starts_with("run/metrics.csv:4: column time") && e.contains("not a finite time"),
+                "{e}"
+            );
+        }
+    }
+
+    /// Found from outside: `plot` panicked (exit 101, an assertion inside the chart library)
+    /// when the time column was all NaN. Refused, naming the first bad line.
+    #[test]
+    fn plot_refuses_an_all_nan_time_column_instead_of_panicking() {
+        let dir = temp_dir("nan-time");
+        std::fs::write(dir.join("metrics.csv"), csv_with(&["NaN", "nan"], "1.0")).unwrap();
+        let e = within(30, move || plot_run(&dir)).unwrap_err().to_string();
+        assert!(
+            e.contains("metrics.csv:2: column time") && e.contains("\"NaN\""),
+            "{e}"
+        );
+    }
+
+    /// Found from outside: `plot` spun forever on a time column spanning -1e308 .. 1e308 (the
+    /// span overflows to infinity). Such a file is drawn, in bounded time, as are values at
+    /// the ends of the f64 range and subnormal ones.
+    #[test]
+    fn plot_draws_times_and_values_spanning_the_whole_f64_range_in_bounded_time() {
+        let cases: [(&[&str], &str); 6] = [
+            (&["-1e308", "1e308"], "1.0"),
+            (
+                &["-1.7976931348623157e308", "0", "1.7976931348623157e308"],
+                "-1e308",
+            ),
+            (&["0", "1e-320", "2e-320"], "1e308"),
+            (&["1e10", "1.0000000000000002e10"], "5e-324"),
+            (&["0", "0"], "nan"),
+            (&["7"], "inf"),
+        ];
+        for (k, (times, value)) in cases.into_iter().enumerate() {
+            let dir = temp_dir(&format!("extreme-{k}"));
+            std::fs::write(dir.join("metrics.csv"), csv_with(times, value)).unwrap();
+            let out = within(60, move || plot_run(&dir)).unwrap();
+            assert!(out.exists(), "case {k}");
+        }
+        // Mixed magnitudes in one value column, and a row whose value is far off the rest.
+        let mut text = csv_with(&["0", "1", "2", "3"], "0.5");
+        text = text.replacen("\n2,2,0.5", "\n2,2,1e300", 1);
+        let m = parse_metrics(&text, Path::new("m.csv")).unwrap();
+        let img = within(60, move || draw_metrics(&m, "extreme")).unwrap();
+        assert_eq!(img.dimensions(), plot_size());
+    }
+
+    #[test]
+    fn axis_ranges_are_finite_with_a_span_of_many_ulps() {
+        let samples: [&[f64]; 8] = [
+            &[f64::MAX, f64::MIN],
+            &[f64::MAX],
+            &[1e10, 1e10 + 2e-6],
+            &[5e-324, 1e-323],
+            &[f64::NAN, f64::INFINITY],
+            &[],
+            &[0.0, 0.0],
+            &[-3.0, 4.0],
+        ];
+        for v in samples {
+            for (lo, hi) in [axis_range(v, 0.08), time_range(v)] {
+                assert!(
+                    lo.is_finite() && hi.is_finite() && hi > lo,
+                    "{v:?}: {lo}..{hi}"
+                );
+                assert!((hi - lo).is_finite(), "{v:?}");
+                assert!(
+                    hi - lo >= 1e-6 * lo.abs().max(hi.abs()),
+                    "{v:?}: {lo}..{hi}"
+                );
+            }
+        }
+        assert_eq!(axis_range(&[-3.0, 4.0], 0.0), (-3.0, 4.0));
     }
 
     #[test]

@@ -59,7 +59,7 @@ pub struct SceneView<'a> {
     pub highlight: Option<usize>,
     /// Particles drawn as pins (red dots), whether or not `particles` is given.
     pub pinned: &'a [usize],
-    /// Solid obstacles (sphere and box colliders).
+    /// Solid obstacles (every collider but the ground, see [`crate::collider_scene`]).
     pub solids: &'a [Solid],
     /// The camera.
     pub camera: Camera,

@@ -192,5 +192,5 @@ fn missing_and_malformed_inputs_are_reported_with_their_file() {
         ..opts(&dir)
     })
     .unwrap_err();
-    assert!(matches!(e, RenderError::NoFrames(_)), "{e}");
+    assert!(matches!(e, RenderError::NoFramesSelected { .. }), "{e}");
 }

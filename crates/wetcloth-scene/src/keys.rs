@@ -234,6 +234,74 @@ pub fn locate(doc: &Spanned<DeTable<'_>>, path: &str) -> Option<(Range<usize>, b
     found.map(|s| (s, false))
 }
 
+/// The value at key path `path` (`collider[0].normal`), if the document has it.
+fn value_at<'a, 'd>(doc: &'a Spanned<DeTable<'d>>, path: &str) -> Option<&'a Spanned<DeValue<'d>>> {
+    let mut table = doc.get_ref();
+    let segs = segments(path);
+    for (n, (key, index)) in segs.iter().enumerate() {
+        let (_, mut value) = table.iter().find(|(k, _)| k.get_ref() == key)?;
+        if let Some(i) = *index {
+            match value.get_ref() {
+                DeValue::Array(items) => value = items.get(i)?,
+                _ => return None,
+            }
+        }
+        if n + 1 == segs.len() {
+            return Some(value);
+        }
+        match value.get_ref() {
+            DeValue::Table(t) => table = t,
+            _ => return None,
+        }
+    }
+    None
+}
+
+/// What kind of TOML value is at key path `path`, in words, with its text where that helps:
+/// `a date-time 1979-05-27`, `an array of tables [[simulation]]`, `a table [collider]`,
+/// `an inline table`, `an array`, `a string`, ... `None` when the path is not in the document.
+pub fn kind_at(doc: &Spanned<DeTable<'_>>, text: &str, path: &str) -> Option<String> {
+    let value = value_at(doc, path)?;
+    let raw = text.get(value.span()).unwrap_or("").trim();
+    Some(match value.get_ref() {
+        DeValue::String(_) => "a string".into(),
+        DeValue::Integer(_) => format!("an integer {raw}"),
+        DeValue::Float(_) => format!("a number {raw}"),
+        DeValue::Boolean(_) => format!("{raw} (true or false)"),
+        DeValue::Datetime(_) => format!("a date-time {raw}"),
+        DeValue::Array(items) => {
+            let tables = !items.is_empty()
+                && items
+                    .iter()
+                    .all(|i| matches!(i.get_ref(), DeValue::Table(_)));
+            let header = items
+                .first()
+                .map(|i| text.get(i.span()).unwrap_or("").trim());
+            match header {
+                Some(h) if tables && h.starts_with("[[") => {
+                    format!("an array of tables {}", h.lines().next().unwrap_or(h))
+                }
+                _ if tables => "an array of tables".into(),
+                _ => "an array".into(),
+            }
+        }
+        DeValue::Table(_) if raw.starts_with('[') => {
+            format!("a table {}", raw.lines().next().unwrap_or(raw))
+        }
+        DeValue::Table(_) if raw.starts_with('{') => "an inline table".into(),
+        DeValue::Table(_) => "a table".into(),
+    })
+}
+
+/// What a top-level key must hold, in words, for the keys that hold tables.
+pub fn expected_at_top(key: &str) -> Option<String> {
+    match key {
+        "simulation" | "cloth" | "air" => Some(format!("a table, written [{key}]")),
+        "collider" | "grab" => Some(format!("an array of tables, written [[{key}]]")),
+        _ => None,
+    }
+}
+
 /// The key path of the innermost key or value whose span contains byte `offset`, indexing
 /// arrays of tables (`grab[0].keys[1].time`) but not arrays of numbers (`cloth.size`).
 ///

@@ -25,6 +25,7 @@
 mod error;
 mod keys;
 mod raw;
+mod start;
 mod write;
 
 pub use error::{Location, SceneError};
@@ -72,6 +73,74 @@ impl Scene {
         to_toml(&self.name, &self.config)
     }
 
+    /// Checks that the cloth starts clear of every collider (its particles' collision spheres
+    /// outside every solid) and within 1e4 m above its sticking plane (the first plane).
+    /// The error names the collider (`collider[1].center`), at its line, and says how far
+    /// inside the cloth is. [`parse`] and [`load`] call it; a scene built in code may.
+    pub fn check_start(&self) -> Result<(), SceneError> {
+        let doc = self
+            .source
+            .as_ref()
+            .and_then(|(_, text)| toml::de::DeTable::parse(text).ok());
+        let given = |i: usize, k: &str| {
+            doc.as_ref().is_some_and(|doc| {
+                keys::locate(doc, &format!("collider[{i}].{k}")).is_some_and(|(_, exact)| exact)
+            })
+        };
+        let Err(p) = start::check(&self.config, given) else {
+            return Ok(());
+        };
+        let key = format!("collider[{}].{}", p.collider, p.key);
+        let shape_keys: &[&str] = match self.config.colliders[p.collider].shape {
+            wetcloth::Shape::Plane(_) => &["point", "normal"],
+            wetcloth::Shape::Sphere(_) => &["center", "radius"],
+            wetcloth::Shape::Box(_) => &["center", "half_extents"],
+        };
+        Err(match &self.source {
+            Some((file, text)) => {
+                let placed = |k: &str| format!("collider[{}].{k}", p.collider);
+                // The key itself, else the collider's other key that places it, else its
+                // table (the value then is the default).
+                let found = doc.as_ref().and_then(|doc| {
+                    std::iter::once(p.key)
+                        .chain(shape_keys.iter().copied())
+                        .find_map(|k| {
+                            keys::locate(doc, &placed(k))
+                                .filter(|(_, exact)| *exact)
+                                .map(|(span, _)| (placed(k), span, true))
+                        })
+                        .or_else(|| {
+                            keys::locate(doc, &key).map(|(span, _)| (key.clone(), span, false))
+                        })
+                });
+                match found {
+                    Some((key, span, exact)) => SceneError::Invalid {
+                        value: if exact {
+                            text.get(span.clone()).unwrap_or("?").trim().to_string()
+                        } else {
+                            "(default)".into()
+                        },
+                        at: Box::new(Location::of_span(file, text, span)),
+                        key,
+                        message: p.message,
+                    },
+                    None => SceneError::Invalid {
+                        at: Box::new(Location::file_only(file)),
+                        key,
+                        value: "(default)".into(),
+                        message: p.message,
+                    },
+                }
+            }
+            None => SceneError::Invalid {
+                at: Box::new(Location::file_only(&format!("scene `{}`", self.name))),
+                key,
+                value: "(as configured)".into(),
+                message: p.message,
+            },
+        })
+    }
+
     /// Turns a [`ConfigError`] about this scene's configuration (from [`SimConfig::validate`] or
     /// [`wetcloth::Simulation::new`]) into a [`SceneError`] that points at the key in the file.
     pub fn locate(&self, err: &ConfigError) -> SceneError {
@@ -85,13 +154,54 @@ impl Scene {
     }
 }
 
+/// The largest scene file [`load`] reads, bytes (16 MiB; the shipped scenes are a few
+/// kilobytes, and a grab with a key per frame of a long run a few hundred).
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
 /// Reads and validates the scene file at `path`. The scene's name defaults to the file stem.
+///
+/// At most [`MAX_SCENE_BYTES`] are read, so a path such as `/dev/zero` is refused rather than
+/// read forever; pipes (`<(...)`) work. Text that is not UTF-8 is refused at its line and
+/// column.
 pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+    use std::io::Read;
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Read {
+    let read_error = |source| SceneError::Read {
         path: path.display().to_string(),
         source,
-    })?;
+    };
+    let file = std::fs::File::open(path).map_err(read_error)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_SCENE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(read_error)?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
+        return Err(read_error(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!(
+                "larger than the {} MiB a scene file may have (is it a scene file?)",
+                MAX_SCENE_BYTES >> 20
+            ),
+        )));
+    }
+    let text = match String::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let at = e.utf8_error().valid_up_to();
+            let byte = e.as_bytes()[at];
+            let lossy = String::from_utf8_lossy(e.as_bytes());
+            return Err(SceneError::Syntax {
+                at: Box::new(Location::of_span(
+                    &path.display().to_string(),
+                    &lossy,
+                    at..at + 1,
+                )),
+                message: format!(
+                    "not UTF-8 text: byte 0x{byte:02x} here (scene files are UTF-8 TOML)"
+                ),
+            });
+        }
+    };
     parse(&text, path)
 }
 
@@ -109,11 +219,9 @@ pub fn parse(text: &str, file: &Path) -> Result<Scene, SceneError> {
         config,
         source: Some((file_label, text.to_string())),
     };
-    scene
-        .config
-        .validate()
-        .map_err(|e| scene.locate(&e))
-        .map(|()| scene)
+    scene.config.validate().map_err(|e| scene.locate(&e))?;
+    scene.check_start()?;
+    Ok(scene)
 }
 
 /// Checks a scene name: letters, digits, `-`, `_` and `.`, not empty and not starting with `.`

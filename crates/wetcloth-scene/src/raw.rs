@@ -141,11 +141,18 @@ pub fn parse(
     default_name: &str,
 ) -> Result<(String, SimConfig), SceneError> {
     let cx = Ctx { file, text };
-    let doc = DeTable::parse(text).map_err(|e| SceneError::Syntax {
-        at: e
-            .span()
-            .map_or_else(|| Box::new(Location::file_only(file)), |s| cx.at(s)),
-        message: e.message().trim().to_string(),
+    let doc = DeTable::parse(text).map_err(|e| {
+        let message = e.message().trim().to_string();
+        let span = e.span().or_else(|| {
+            first_line_where(text, |prefix| {
+                DeTable::parse(prefix)
+                    .is_err_and(|e| e.span().is_none() && e.message().trim() == message)
+            })
+        });
+        SceneError::Syntax {
+            at: span.map_or_else(|| Box::new(Location::file_only(file)), |s| cx.at(s)),
+            message: syntax_help(&message),
+        }
     })?;
     if let Some(u) = keys::find_unknown(doc.get_ref()) {
         return Err(SceneError::UnknownKey {
@@ -159,13 +166,52 @@ pub fn parse(
     convert(&cx, &doc, raw, default_name)
 }
 
+/// The span of the first line `i` such that `fails(text up to the end of line i)`, by
+/// bisection: for errors the parser reports without a position (a recursion limit), the
+/// first line whose text triggers them. `fails` must hold for every longer prefix once it
+/// holds for one (the parser stops at the first error).
+fn first_line_where(text: &str, fails: impl Fn(&str) -> bool) -> Option<Range<usize>> {
+    let ends: Vec<usize> = text
+        .match_indices('\n')
+        .map(|(i, _)| i + 1)
+        .chain((!text.ends_with('\n')).then_some(text.len()))
+        .collect();
+    if ends.is_empty() || !fails(text) {
+        return None;
+    }
+    let (mut lo, mut hi) = (0, ends.len() - 1);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if fails(&text[..ends[mid]]) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    let start = if lo == 0 { 0 } else { ends[lo - 1] };
+    Some(start..ends[lo])
+}
+
+/// The TOML parser's message, with a word on what to do where it is terse.
+fn syntax_help(message: &str) -> String {
+    if message.contains("recursion") {
+        format!("{message}: keys or values nested too deeply (a scene needs at most 4 levels)")
+    } else {
+        message.to_string()
+    }
+}
+
 /// Maps a deserialisation error (a wrong type, a missing key) to the key it is about.
 fn serde_error(cx: &Ctx<'_>, doc: &Spanned<DeTable<'_>>, e: &toml::de::Error) -> SceneError {
     let message = e.message().trim().to_string();
     let Some(span) = e.span() else {
+        let line = first_line_where(cx.text, |prefix| {
+            toml::from_str::<RawScene>(prefix)
+                .is_err_and(|e| e.span().is_none() && e.message().trim() == message)
+        });
         return SceneError::Syntax {
-            at: Box::new(Location::file_only(cx.file)),
-            message,
+            at: line.map_or_else(|| Box::new(Location::file_only(cx.file)), |s| cx.at(s)),
+            message: syntax_help(&message),
         };
     };
     let key = keys::path_at(doc.get_ref(), span.start).unwrap_or_default();
@@ -184,11 +230,33 @@ fn serde_error(cx: &Ctx<'_>, doc: &Spanned<DeTable<'_>>, e: &toml::de::Error) ->
             key,
         };
     }
+    // A table written as an array of tables (`[[simulation]]`) or the other way round: the
+    // key is the top-level one, whatever element serde was reading.
+    let root = key.split(['.', '[']).next().unwrap_or("").to_string();
+    let key = match keys::expected_at_top(&root) {
+        Some(_) if !key.contains('.') => root.clone(),
+        _ => key,
+    };
+    let found = keys::kind_at(doc, cx.text, &key);
+    let message = match (keys::expected_at_top(&key), &found) {
+        (Some(expected), Some(found)) => format!("expected {expected}, found {found}"),
+        // serde reads a date-time as a map: say what it is.
+        (None, Some(found)) if found.starts_with("a date-time") => {
+            let expected = friendly_types(&message);
+            let expected = expected
+                .strip_prefix("expected ")
+                .and_then(|e| e.split(", found ").next())
+                .unwrap_or("another type")
+                .to_string();
+            format!("expected {expected}, found {found}")
+        }
+        _ => friendly_types(&message),
+    };
     SceneError::WrongType {
         at: cx.at(span.clone()),
         key,
         value: cx.raw(&span),
-        message: friendly_types(&message),
+        message,
     }
 }
 
@@ -421,14 +489,24 @@ fn sanitize_name(stem: &str) -> String {
 }
 
 /// Normalises a plane normal, keeping it bit for bit when it is already of unit length, so a
-/// resolved scene parses back to the same normal.
-fn unit(n: Vec3) -> Vec3 {
-    let len = n.length();
-    if (len - 1.0).abs() <= 1e-12 || len == 0.0 || !len.is_finite() {
-        n
-    } else {
-        n / len
+/// resolved scene parses back to the same normal. Any finite non-zero vector has a direction,
+/// however small or large its components (`[1e-200, 1e-200, 0]`, `[1e300, 1e300, 0]`): it is
+/// scaled by its largest component first, so its length neither underflows nor overflows.
+/// `None` for the zero vector and for non-finite components.
+fn unit(n: Vec3) -> Option<Vec3> {
+    if !n.is_finite() {
+        return None;
     }
+    let len = n.length();
+    if (len - 1.0).abs() <= 1e-12 {
+        return Some(n);
+    }
+    let big = n.abs().max_element();
+    if big == 0.0 {
+        return None;
+    }
+    let m = n / big;
+    Some(m / m.length())
 }
 
 fn collider(
@@ -489,10 +567,30 @@ fn collider(
     };
     let friction = c.friction.unwrap_or(DEFAULT_FRICTION);
     let v = |s: Option<Spanned<Arr<Real, 3>>>| s.map(|s| vec3(s.into_inner()));
+    let normal_span = c.normal.as_ref().map(|s| s.span());
     let shape = match shape_name {
         "plane" => Shape::Plane(Plane {
             point: v(c.point).unwrap_or(Vec3::ZERO),
-            normal: unit(v(c.normal).unwrap_or(Vec3::Y)),
+            normal: {
+                let n = v(c.normal).unwrap_or(Vec3::Y);
+                unit(n).ok_or_else(|| {
+                    let span = normal_span.clone().unwrap_or(table_span.clone());
+                    SceneError::Invalid {
+                        at: cx.at(span.clone()),
+                        key: key("normal"),
+                        value: cx.raw(&span),
+                        message: if n.is_finite() {
+                            "the zero vector has no direction: a plane's normal is any non-zero \
+                             vector pointing out of the solid, e.g. [0, 1, 0]"
+                                .into()
+                        } else {
+                            "must be finite (inf and nan have no direction): a plane's normal is \
+                             any non-zero vector pointing out of the solid, e.g. [0, 1, 0]"
+                                .into()
+                        },
+                    }
+                })?
+            },
         }),
         "sphere" => Shape::Sphere(Sphere {
             center: v(c.center).unwrap_or(Vec3::ZERO),

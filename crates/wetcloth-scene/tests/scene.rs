@@ -112,8 +112,10 @@ keys = [ { time = 0.5, offset = [0.0, 0.0, 0.0] },
 
 #[test]
 fn collider_shapes_and_their_defaults() {
+    // The cloth starts above the sphere at the origin (a cloth may not start inside one).
     let text = format!(
-        "{PLANE}normal = [0, 2, 0]\n\
+        "[cloth]\nposition = [0, 0.5, 0]\n[air]\nenabled = false\n\
+         {PLANE}normal = [0, 2, 0]\n\
          [[collider]]\nshape = \"sphere\"\nradius = 0.1\nfriction = 0.2\n\
          [[collider]]\nshape = \"box\"\ncenter = [1, 2, 3]\nhalf_extents = [0.1, 0.2, 0.3]\n"
     );

@@ -6,7 +6,7 @@
 //!
 //! Files are written on a thread of their own, so recording never slows the window down.
 
-use std::fs::{self, File};
+use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -14,7 +14,10 @@ use std::sync::mpsc::{self, Sender};
 use std::thread::JoinHandle;
 
 use wetcloth::{FrameMetrics, Grid, SimConfig, Soa};
-use wetcloth_export::{MetricsCsv, RunInfo, frame_file_name, is_frame_file_name, write_obj};
+use wetcloth_export::{
+    MetricsCsv, RunInfo, RunStatus, create_fresh, frame_file_name, is_frame_file_name,
+    write_atomically, write_obj,
+};
 
 /// One frame to write: the exact particle positions and the measurements.
 struct Frame {
@@ -45,14 +48,12 @@ impl Recorder {
                 fs::remove_file(entry.path())?;
             }
         }
-        fs::write(
-            dir.join("scene.toml"),
-            wetcloth_scene::to_toml(name, config),
-        )?;
-        let mut csv = MetricsCsv::new(BufWriter::new(File::create(dir.join("metrics.csv"))?))?;
         let json = dir.join("run.json");
         let (name, mut config) = (name.to_string(), config.clone());
-        write_run_json(&json, &name, &config, 0, false)?;
+        write_run_json(&json, &name, &config, 0, RunStatus::Running, 0.0)?;
+        let toml = wetcloth_scene::to_toml(&name, &config);
+        write_atomically(&dir.join("scene.toml"), |w| w.write_all(toml.as_bytes()))?;
+        let mut csv = MetricsCsv::new(BufWriter::new(create_fresh(&dir.join("metrics.csv"))?))?;
         let grid = Grid::new(&config.cloth);
         let uvs = grid.uvs();
 
@@ -62,28 +63,41 @@ impl Recorder {
             .spawn(move || {
                 let mut n = 0u64;
                 let mut times = (0.0, 0.0);
-                for f in rx {
-                    let path = frames_dir.join(frame_file_name(n));
-                    let part = frames_dir.join(format!("{}.part", frame_file_name(n)));
-                    let normals = grid.vertex_normals(&f.positions);
-                    let mut w = BufWriter::new(File::create(&part)?);
-                    write_obj(&mut w, &grid, &f.positions, &normals, &uvs)?;
-                    w.flush()?;
-                    drop(w);
-                    fs::rename(&part, &path)?;
-                    csv.write_row(n, &f.metrics)?;
-                    if n == 0 {
-                        times.0 = f.metrics.time;
+                let written = || -> io::Result<()> {
+                    for f in rx {
+                        let path = frames_dir.join(frame_file_name(n));
+                        let normals = grid.vertex_normals(&f.positions);
+                        write_atomically(&path, |w| {
+                            write_obj(w, &grid, &f.positions, &normals, &uvs)
+                        })?;
+                        csv.write_row(n, &f.metrics)?;
+                        if n == 0 {
+                            times.0 = f.metrics.time;
+                        }
+                        times.1 = f.metrics.time;
+                        n += 1;
                     }
-                    times.1 = f.metrics.time;
-                    n += 1;
-                }
+                    Ok(())
+                };
+                let result = written();
                 // Frames follow the window, not a fixed rate: record the mean rate.
                 if n > 1 && times.1 > times.0 {
                     config.simulation.frame_rate = (n - 1) as f64 / (times.1 - times.0);
                 }
-                write_run_json(&json, &name, &config, n, true)?;
-                Ok(n)
+                match result {
+                    Ok(()) => {
+                        write_run_json(&json, &name, &config, n, RunStatus::Complete, times.1)?;
+                        Ok(n)
+                    }
+                    Err(e) => {
+                        // Say so in run.json, if it can still be written.
+                        let info = RunInfo::new(&name, &config, n, false)
+                            .with_status(RunStatus::Running, times.1)
+                            .failed(format!("recording failed: {e}"));
+                        let _ = wetcloth_export::write_run_json_file(&json, &info);
+                        Err(e)
+                    }
+                }
             })?;
         Ok(Self {
             dir: dir.to_path_buf(),
@@ -138,9 +152,11 @@ fn write_run_json(
     name: &str,
     config: &SimConfig,
     frames: u64,
-    complete: bool,
+    status: RunStatus,
+    time: f64,
 ) -> io::Result<()> {
-    wetcloth_export::write_run_json_file(path, &RunInfo::new(name, config, frames, complete))
+    let info = RunInfo::new(name, config, frames, false).with_status(status, time);
+    wetcloth_export::write_run_json_file(path, &info)
 }
 
 #[cfg(test)]
@@ -182,6 +198,7 @@ mod tests {
             json.contains("\"frames\": 2") || json.contains("\"frames\":2"),
             "{json}"
         );
+        assert!(json.contains("\"status\": \"complete\""), "{json}");
         assert!(dir.join("scene.toml").exists());
         fs::remove_dir_all(&dir).unwrap();
     }

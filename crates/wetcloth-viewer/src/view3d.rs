@@ -5,7 +5,6 @@ use std::sync::Arc;
 
 use eframe::egui;
 use eframe::egui_wgpu::{self, CallbackResources, CallbackTrait, RenderState, ScreenDescriptor};
-use glam::Vec3;
 use wetcloth_render::{ClothRenderer, GroundPlane, MeshView, SceneView, Solid};
 
 use crate::camera::OrbitCamera;
@@ -17,13 +16,15 @@ pub(crate) const DEPTH_BITS: u8 = 24;
 /// MSAA samples of the window (1: none; software rendering pays for every sample).
 pub(crate) const SAMPLES: u16 = 4;
 
+/// The ground and the solids around the cloth ([`wetcloth_render::collider_scene`]).
+pub(crate) type ColliderScene = (Option<GroundPlane>, Vec<Solid>);
+
 /// Everything one frame of the 3D view shows, owned so the callback can outlive the UI pass.
 pub(crate) struct Frame {
     pub positions: Vec<[f32; 3]>,
     pub normals: Vec<[f32; 3]>,
     pub indices: Arc<Vec<u32>>,
-    pub ground: Option<(Vec3, Vec3)>,
-    pub solids: Vec<Solid>,
+    pub scene: Arc<ColliderScene>,
     pub show_particles: bool,
     pub particle_radius: f32,
     pub highlight: Option<usize>,
@@ -73,15 +74,12 @@ impl CallbackTrait for SceneCallback {
                 normals: &f.normals,
                 indices: &f.indices,
             },
-            ground: f.ground.map(|(p, n)| GroundPlane {
-                point: p.to_array(),
-                normal: n.to_array(),
-            }),
+            ground: f.scene.0,
             particles: f.show_particles.then_some(f.positions.as_slice()),
             particle_radius: f.particle_radius,
             highlight: f.highlight,
             pinned: &f.pinned,
-            solids: &f.solids,
+            solids: &f.scene.1,
             camera: f.camera.to_camera(),
             wetness: f.wetness,
         };

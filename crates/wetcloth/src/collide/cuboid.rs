@@ -1,6 +1,6 @@
 //! The solid axis-aligned box (scene `shape = "box"`).
 
-use super::{SurfaceMesh, require_finite};
+use super::{SurfaceMesh, require_position};
 use crate::error::ConfigError;
 use crate::math::{Real, Vec3};
 
@@ -12,7 +12,7 @@ use crate::math::{Real, Vec3};
     serde(from = "CuboidRepr", into = "CuboidRepr")
 )]
 pub struct Cuboid {
-    /// Centre, m. Scene default (0, 0, 0); any finite point.
+    /// Centre, m. Scene default (0, 0, 0); each component in [-1e6, 1e6].
     pub center: Vec3,
     /// Half extents along x, y, z, m. Required; each in (0, 1e4].
     pub half_extents: Vec3,
@@ -69,7 +69,7 @@ impl Cuboid {
     }
 
     pub(crate) fn validate(&self, key: &dyn Fn(&str) -> String) -> Result<(), ConfigError> {
-        require_finite(key("center"), self.center)?;
+        require_position(key("center"), self.center)?;
         let h = self.half_extents;
         if !(h.is_finite() && h.min_element() > 0.0 && h.max_element() <= 1e4) {
             return Err(ConfigError::OutOfRange {

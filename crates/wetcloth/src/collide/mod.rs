@@ -173,14 +173,20 @@ impl Collider {
     }
 }
 
-/// `Err` naming `key` unless `v` is finite.
-pub(crate) fn require_finite(key: String, v: Vec3) -> Result<(), ConfigError> {
-    if v.is_finite() {
+/// Largest magnitude of a collider's position coordinates, m (a thousand kilometres: a scene is
+/// metres across, and 32-bit renderers lose anything much farther out).
+pub const MAX_POSITION: Real = 1e6;
+
+/// `Err` naming `key` unless every component of the position `v` (m) is within
+/// [`MAX_POSITION`] of the origin.
+pub(crate) fn require_position(key: String, v: Vec3) -> Result<(), ConfigError> {
+    if v.is_finite() && v.abs().max_element() <= MAX_POSITION {
         Ok(())
     } else {
-        Err(ConfigError::Invalid {
+        Err(ConfigError::OutOfRange {
             key,
-            message: "must be finite".into(),
+            value: format!("[{}, {}, {}]", v.x, v.y, v.z),
+            range: format!("each component in [-{MAX_POSITION:e}, {MAX_POSITION:e}] m"),
         })
     }
 }

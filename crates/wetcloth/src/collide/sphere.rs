@@ -1,6 +1,6 @@
 //! The solid sphere.
 
-use super::{SurfaceMesh, require_finite};
+use super::{SurfaceMesh, require_position};
 use crate::error::ConfigError;
 use crate::math::{Real, Vec3};
 
@@ -12,7 +12,7 @@ use crate::math::{Real, Vec3};
     serde(from = "SphereRepr", into = "SphereRepr")
 )]
 pub struct Sphere {
-    /// Centre, m. Scene default (0, 0, 0); any finite point.
+    /// Centre, m. Scene default (0, 0, 0); each component in [-1e6, 1e6].
     pub center: Vec3,
     /// Radius, m. Required; range (0, 1e4].
     pub radius: Real,
@@ -57,7 +57,7 @@ impl Sphere {
     }
 
     pub(crate) fn validate(&self, key: &dyn Fn(&str) -> String) -> Result<(), ConfigError> {
-        require_finite(key("center"), self.center)?;
+        require_position(key("center"), self.center)?;
         let r = self.radius;
         if !(r.is_finite() && r > 0.0 && r <= 1e4) {
             return Err(ConfigError::OutOfRange {

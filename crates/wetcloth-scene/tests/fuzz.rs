@@ -1,0 +1,549 @@
+//! Fuzzing the scene reader: generated scene files (every key, values of every TOML type,
+//! extreme and non-finite numbers, misspelt keys, tables written as arrays) and byte-level
+//! mutations of them. Properties: no panic, no hang; a scene that is accepted validates, starts
+//! clear of its colliders, and its resolved `scene.toml` reads back to the same configuration;
+//! a refusal names the file and, where it has a line, the line really is that line of the text.
+//!
+//! A short campaign runs with the test suite. The long one (a million scene files) is
+//! `cargo test --release -p wetcloth-scene --test fuzz -- --ignored`; `WETCLOTH_FUZZ_CASES`
+//! sets the number of cases of any campaign and `WETCLOTH_FUZZ_SEED` its seed (the default
+//! seed is fixed, so the short campaign is the same on every run). See docs/reliability.md.
+//! A failure prints the smallest input found: keep it as a regression test named after what
+//! it found (as `tests/misleading_messages.rs` and `tests/cloth_inside_collider.rs` do).
+
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
+use wetcloth_scene::{Scene, SceneError, parse};
+
+/// A case that takes longer than this is a hang: the watchdog prints it and aborts.
+const HANG: Duration = Duration::from_secs(20);
+
+/// The case being run and when it started, for the watchdog.
+static CURRENT: Mutex<Option<(Instant, String)>> = Mutex::new(None);
+
+fn watchdog() {
+    static STARTED: std::sync::Once = std::sync::Once::new();
+    STARTED.call_once(|| {
+        std::thread::spawn(|| {
+            loop {
+                std::thread::sleep(Duration::from_millis(200));
+                let guard = CURRENT.lock().unwrap_or_else(|e| e.into_inner());
+                if let Some((t, input)) = guard.as_ref()
+                    && t.elapsed() > HANG
+                {
+                    eprintln!("fuzz: a case hung for {HANG:?}; its input:\n{input:?}");
+                    std::process::abort();
+                }
+            }
+        });
+    });
+}
+
+/// Runs `f` on `input` under the watchdog.
+fn guarded<T>(input: &str, f: impl FnOnce() -> T) -> T {
+    *CURRENT.lock().unwrap_or_else(|e| e.into_inner()) = Some((Instant::now(), input.into()));
+    let out = f();
+    *CURRENT.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    out
+}
+
+/// Cases: `WETCLOTH_FUZZ_CASES`, else `default`.
+fn cases(default: u32) -> u32 {
+    std::env::var("WETCLOTH_FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(default)
+}
+
+/// A runner with `cases` cases, seeded from `WETCLOTH_FUZZ_SEED` (default fixed).
+fn runner(cases: u32) -> TestRunner {
+    watchdog();
+    let seed: u64 = std::env::var("WETCLOTH_FUZZ_SEED")
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(0x7765_7463_6c6f_7468);
+    let mut bytes = [0u8; 32];
+    bytes[..8].copy_from_slice(&seed.to_le_bytes());
+    let config = Config {
+        cases,
+        max_shrink_iters: 4096,
+        failure_persistence: None,
+        ..Config::default()
+    };
+    eprintln!("fuzz: {cases} cases, seed {seed}");
+    TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &bytes))
+}
+
+/// A float as TOML writes it (`nan`, `inf`, `-inf`, or the shortest exact text).
+fn toml_float(v: f64) -> String {
+    if v.is_nan() {
+        "nan".into()
+    } else if v.is_infinite() {
+        if v > 0.0 { "inf".into() } else { "-inf".into() }
+    } else {
+        format!("{v:?}")
+    }
+}
+
+fn number() -> impl Strategy<Value = String> {
+    prop_oneof![
+        4 => (-2.0f64..2.0).prop_map(toml_float),
+        3 => (-1e4f64..1e4).prop_map(toml_float),
+        3 => any::<f64>().prop_map(toml_float),
+        2 => (0u64..5000).prop_map(|v| v.to_string()),
+        1 => any::<i64>().prop_map(|v| v.to_string()),
+        1 => prop::sample::select(vec![
+            "inf", "-inf", "nan", "-nan", "+inf", "-0.0", "0", "1e308", "-1e308", "1.7976931348623157e308",
+            "5e-324", "1e-320", "1e-7", "1e-2", "1e4", "1e7", "4096", "4097", "1", "2", "1_000", "0x10",
+            "0o7", "0b1", "1e", ".5", "1.", "+1", "9223372036854775807", "18446744073709551616",
+        ])
+        .prop_map(String::from),
+    ]
+}
+
+fn scalar() -> impl Strategy<Value = String> {
+    prop_oneof![
+        6 => number(),
+        1 => prop::bool::ANY.prop_map(|b| b.to_string()),
+        1 => "[a-z0-9 _.-]{0,12}".prop_map(|s| format!("{s:?}")),
+        1 => prop::sample::select(vec![
+            "1979-05-27", "07:32:00", "1979-05-27T07:32:00Z", "1979-05-27 07:32:00.999999",
+            "\"plane\"", "\"sphere\"", "\"box\"", "\"verlet\"", "\"implicit\"", "\"explicit\"",
+            "'plane'", "\"\"", "\"\\u00e9\"", "\"\\n\"",
+        ])
+        .prop_map(String::from),
+    ]
+}
+
+fn value() -> impl Strategy<Value = String> {
+    let leaf = scalar();
+    leaf.prop_recursive(3, 24, 5, |inner| {
+        prop_oneof![
+            3 => prop::collection::vec(inner.clone(), 0..5)
+                .prop_map(|v| format!("[{}]", v.join(", "))),
+            3 => prop::collection::vec(number(), 2..=3)
+                .prop_map(|v| format!("[{}]", v.join(", "))),
+            1 => prop::collection::vec(("[a-z]{1,6}", inner), 0..3).prop_map(|v| {
+                let kv: Vec<String> = v.iter().map(|(k, x)| format!("{k} = {x}")).collect();
+                format!("{{ {} }}", kv.join(", "))
+            }),
+        ]
+    })
+}
+
+const SIMULATION: &[&str] = &[
+    "duration",
+    "time_step",
+    "integrator",
+    "frame_rate",
+    "gravity",
+];
+const CLOTH: &[&str] = &[
+    "size",
+    "resolution",
+    "position",
+    "mass",
+    "structural_stiffness",
+    "shear_stiffness",
+    "damping",
+    "thickness",
+    "collision_margin",
+    "self_collision",
+    "strain_limit",
+    "strain_limit_iterations",
+];
+const AIR: &[&str] = &[
+    "enabled",
+    "atmospheric_pressure",
+    "trapped_air",
+    "leak_conductance",
+    "pressure_solve",
+];
+const COLLIDER: &[&str] = &[
+    "shape",
+    "point",
+    "normal",
+    "center",
+    "radius",
+    "half_extents",
+    "friction",
+];
+
+/// Key names: mostly valid ones, sometimes misspelt or foreign.
+fn key(valid: &'static [&'static str]) -> impl Strategy<Value = String> {
+    prop_oneof![
+        24 => prop::sample::select(valid).prop_map(String::from),
+        1 => (prop::sample::select(valid), "[a-z_]{1,2}").prop_map(|(k, s)| format!("{k}{s}")),
+        1 => "[a-z_]{1,10}".prop_map(|s| s),
+    ]
+}
+
+fn num(r: std::ops::Range<f64>) -> BoxedStrategy<String> {
+    r.prop_map(toml_float).boxed()
+}
+
+fn vec_of(parts: Vec<BoxedStrategy<String>>) -> BoxedStrategy<String> {
+    parts.prop_map(|v| format!("[{}]", v.join(", "))).boxed()
+}
+
+/// A value that is usually right for `key` (in range, of its type), so that many scenes are
+/// accepted and reach the round trip.
+fn good(key: &str) -> BoxedStrategy<String> {
+    let int = |r: std::ops::Range<u64>| r.prop_map(|v| v.to_string()).boxed();
+    match key {
+        "duration" => num(1e-3..10.0),
+        "time_step" => num(1e-5..1e-3),
+        "integrator" => Just("\"verlet\"".to_string()).boxed(),
+        "frame_rate" => num(1.0..1000.0),
+        "gravity" | "normal" => vec_of(vec![num(-20.0..20.0), num(-20.0..20.0), num(-20.0..20.0)]),
+        "size" => vec_of(vec![num(0.01..2.0), num(0.01..2.0)]),
+        "resolution" => vec_of(vec![int(2..64), int(2..64)]),
+        "position" => vec_of(vec![num(-1.0..1.0), num(0.01..1.0), num(-1.0..1.0)]),
+        "mass" => num(1e-4..1.0),
+        "structural_stiffness" | "shear_stiffness" => num(0.0..1e4),
+        "damping" => num(0.0..10.0),
+        "thickness" | "collision_margin" => num(0.0..0.01),
+        "self_collision" | "enabled" => prop::bool::ANY.prop_map(|b| b.to_string()).boxed(),
+        "strain_limit" => num(0.0..1.0),
+        "strain_limit_iterations" => int(1..10),
+        "atmospheric_pressure" => num(0.0..2e5),
+        "trapped_air" => num(0.0..1e-3),
+        "leak_conductance" => num(0.0..1.0),
+        "pressure_solve" => prop::sample::select(vec!["\"implicit\"", "\"explicit\""])
+            .prop_map(String::from)
+            .boxed(),
+        "point" | "center" => vec_of(vec![num(-1.0..1.0), num(-1.0..0.0), num(-1.0..1.0)]),
+        "radius" => num(0.01..0.3),
+        "half_extents" => vec_of(vec![num(0.01..0.3), num(0.01..0.3), num(0.01..0.3)]),
+        "friction" => num(0.0..2.0),
+        "name" => "[a-z][a-z0-9_.-]{0,10}"
+            .prop_map(|s| format!("{s:?}"))
+            .boxed(),
+        _ => value().boxed(),
+    }
+}
+
+/// A value for `key`: mostly a good one, sometimes any value at all.
+fn value_for(key: String) -> impl Strategy<Value = (String, String)> {
+    let v = prop_oneof![
+        24 => good(&key),
+        1 => number().boxed(),
+        1 => value().boxed(),
+    ];
+    v.prop_map(move |v| (key.clone(), v))
+}
+
+/// Keys and values of a table, mostly each key once (a repeated key is a TOML error, tried
+/// now and then).
+fn entries(valid: &'static [&'static str]) -> impl Strategy<Value = Vec<(String, String)>> {
+    (
+        prop::collection::vec(key(valid).prop_flat_map(value_for), 0..7),
+        prop::bool::weighted(0.01),
+    )
+        .prop_map(|(mut v, repeat)| {
+            if !repeat {
+                let mut seen = std::collections::HashSet::new();
+                v.retain(|(k, _)| seen.insert(k.clone()));
+            }
+            v
+        })
+}
+
+/// A grab with plausible keys (or not).
+fn grab() -> impl Strategy<Value = String> {
+    let coordinate = || prop_oneof![6 => num(-0.1..0.1), 1 => number().boxed()];
+    // Times in order, now and then not (or not numbers at all).
+    let keyframe = (
+        prop_oneof![12 => Just(None), 1 => number().prop_map(Some)],
+        0.0f64..0.5,
+        coordinate(),
+        coordinate(),
+        coordinate(),
+    );
+    let keyframes = prop::collection::vec(keyframe, 0..4).prop_map(|ks| {
+        let mut t = 0.0;
+        ks.into_iter()
+            .map(|(odd, dt, x, y, z)| {
+                t += dt;
+                let time = odd.unwrap_or_else(|| toml_float(t));
+                format!("{{ time = {time}, offset = [{x}, {y}, {z}] }}")
+            })
+            .collect::<Vec<_>>()
+    });
+    (
+        (0u64..6, 0u64..6),
+        keyframes,
+        prop::collection::vec(key(&["x_extra"]).prop_flat_map(value_for), 0..1),
+    )
+        .prop_map(|((i, j), keys, extra)| {
+            let mut s = format!(
+                "[[grab]]\nparticle = [{i}, {j}]\nkeys = [{}]\n",
+                keys.join(", ")
+            );
+            for (k, v) in extra {
+                s += &format!("{k} = {v}\n");
+            }
+            s
+        })
+}
+
+/// A collider: a shape and some keys.
+fn collider() -> impl Strategy<Value = String> {
+    (
+        prop_oneof![
+            8 => Just("\"plane\""),
+            3 => Just("\"sphere\""),
+            3 => Just("\"box\""),
+            1 => prop::sample::select(vec!["\"cone\"", "3", "\"Plane\""]),
+        ],
+        entries(COLLIDER),
+    )
+        .prop_map(|(shape, e)| {
+            let mut s = format!("[[collider]]\nshape = {shape}\n");
+            for (k, v) in e.into_iter().filter(|(k, _)| k != "shape") {
+                s += &format!("{k} = {v}\n");
+            }
+            s
+        })
+}
+
+fn table(name: &'static str, valid: &'static [&'static str]) -> impl Strategy<Value = String> {
+    (
+        prop_oneof![12 => Just("[{}]"), 1 => Just("[[{}]]")],
+        entries(valid),
+    )
+        .prop_map(move |(header, e)| {
+            let mut s = format!("{}\n", header.replace("{}", name));
+            for (k, v) in e {
+                s += &format!("{k} = {v}\n");
+            }
+            s
+        })
+}
+
+/// A whole scene file, its parts in a random order.
+fn scene_text() -> impl Strategy<Value = String> {
+    (
+        prop::option::of(prop_oneof![12 => good("name"), 1 => scalar().boxed()]),
+        prop::option::of(table("simulation", SIMULATION)),
+        prop::option::of(table("cloth", CLOTH)),
+        prop::option::of(table("air", AIR)),
+        prop::collection::vec(collider(), 0..3),
+        prop::collection::vec(grab(), 0..2),
+        any::<bool>(),
+    )
+        .prop_map(|(name, sim, cloth, air, colliders, grabs, reverse)| {
+            let mut parts: Vec<String> = Vec::new();
+            parts.extend(sim);
+            parts.extend(cloth);
+            parts.extend(air);
+            parts.extend(colliders);
+            parts.extend(grabs);
+            if reverse {
+                parts.reverse();
+            }
+            let mut s = name.map(|n| format!("name = {n}\n")).unwrap_or_default();
+            s += &parts.join("\n");
+            s
+        })
+}
+
+/// A byte-level change to a text.
+#[derive(Clone, Debug)]
+enum Mutation {
+    Delete(prop::sample::Index, usize),
+    Insert(prop::sample::Index, Vec<u8>),
+    Duplicate(prop::sample::Index, usize),
+    Truncate(prop::sample::Index),
+    SwapLines(prop::sample::Index, prop::sample::Index),
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    prop_oneof![
+        (any::<prop::sample::Index>(), 1usize..20).prop_map(|(i, n)| Mutation::Delete(i, n)),
+        (
+            any::<prop::sample::Index>(),
+            prop::collection::vec(
+                prop_oneof![
+                    prop::sample::select(b"[]{}=\",.#\n'\\0123456789eE+-_ x".to_vec()),
+                    any::<u8>()
+                ],
+                1..8
+            )
+        )
+            .prop_map(|(i, b)| Mutation::Insert(i, b)),
+        (any::<prop::sample::Index>(), 1usize..40).prop_map(|(i, n)| Mutation::Duplicate(i, n)),
+        any::<prop::sample::Index>().prop_map(Mutation::Truncate),
+        (any::<prop::sample::Index>(), any::<prop::sample::Index>())
+            .prop_map(|(a, b)| Mutation::SwapLines(a, b)),
+    ]
+}
+
+fn mutate(text: &str, mutations: &[Mutation]) -> Vec<u8> {
+    let mut b = text.as_bytes().to_vec();
+    for m in mutations {
+        let n = b.len().max(1);
+        match m {
+            Mutation::Delete(i, len) => {
+                let at = i.index(n).min(b.len());
+                let end = (at + len).min(b.len());
+                b.drain(at..end);
+            }
+            Mutation::Insert(i, bytes) => {
+                let at = i.index(n + 1).min(b.len());
+                b.splice(at..at, bytes.iter().copied());
+            }
+            Mutation::Duplicate(i, len) => {
+                let at = i.index(n).min(b.len());
+                let end = (at + len).min(b.len());
+                let copy = b[at..end].to_vec();
+                b.splice(end..end, copy);
+            }
+            Mutation::Truncate(i) => b.truncate(i.index(n)),
+            Mutation::SwapLines(x, y) => {
+                let mut lines: Vec<Vec<u8>> =
+                    b.split(|&c| c == b'\n').map(<[u8]>::to_vec).collect();
+                let (p, q) = (x.index(lines.len()), y.index(lines.len()));
+                lines.swap(p, q);
+                b = lines.join(&b'\n');
+            }
+        }
+    }
+    b
+}
+
+/// The properties every scene text must have.
+static ACCEPTED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+static REFUSED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+fn check(text: &str) -> Result<(), TestCaseError> {
+    let result = guarded(text, || parse(text, "s.toml".as_ref()));
+    let counter = if result.is_ok() { &ACCEPTED } else { &REFUSED };
+    counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    match result {
+        Ok(scene) => accepted(&scene),
+        Err(e) => refused(text, &e),
+    }
+}
+
+fn accepted(scene: &Scene) -> Result<(), TestCaseError> {
+    prop_assert!(
+        scene.config.validate().is_ok(),
+        "accepted but invalid: {:?}",
+        scene.config
+    );
+    prop_assert!(scene.check_start().is_ok());
+    let resolved = scene.to_toml();
+    let back = guarded(&resolved, || parse(&resolved, "resolved.toml".as_ref()));
+    match back {
+        Ok(back) => {
+            prop_assert_eq!(&back.config, &scene.config, "resolved:\n{}", resolved);
+            prop_assert_eq!(&back.name, &scene.name);
+        }
+        Err(e) => prop_assert!(false, "the resolved scene is refused: {e}\n{resolved}"),
+    }
+    Ok(())
+}
+
+fn refused(text: &str, e: &SceneError) -> Result<(), TestCaseError> {
+    let msg = e.to_string();
+    prop_assert!(msg.starts_with("s.toml"), "{}", msg);
+    prop_assert!(!msg.contains("panicked"), "{}", msg);
+    if let Some(at) = e.location()
+        && at.line > 0
+    {
+        let lines: Vec<&str> = text.split('\n').collect();
+        prop_assert!(
+            at.line <= lines.len(),
+            "line {} of {}: {}",
+            at.line,
+            lines.len(),
+            msg
+        );
+        prop_assert_eq!(
+            at.source_line.as_str(),
+            lines[at.line - 1].trim_end_matches('\r'),
+            "{}",
+            msg
+        );
+        prop_assert!(at.column >= 1);
+    }
+    Ok(())
+}
+
+fn generated_campaign(n: u32) {
+    runner(n).run(&scene_text(), |text| check(&text)).unwrap();
+    eprintln!(
+        "fuzz: {} accepted, {} refused so far",
+        ACCEPTED.load(std::sync::atomic::Ordering::Relaxed),
+        REFUSED.load(std::sync::atomic::Ordering::Relaxed)
+    );
+}
+
+fn mutated_campaign(n: u32) {
+    runner(n)
+        .run(
+            &(scene_text(), prop::collection::vec(mutation(), 1..4)),
+            |(text, m)| {
+                let bytes = mutate(&text, &m);
+                check(&String::from_utf8_lossy(&bytes))
+            },
+        )
+        .unwrap();
+}
+
+/// The shipped scenes, mutated: realistic files one typo away from valid.
+fn shipped_campaign(n: u32) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let mut scenes: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| {
+            let p = e.ok()?.path();
+            (p.extension()? == "toml").then(|| std::fs::read_to_string(p).ok())?
+        })
+        .collect();
+    scenes.sort();
+    runner(n)
+        .run(
+            &(
+                prop::sample::select(scenes),
+                prop::collection::vec(mutation(), 1..4),
+            ),
+            |(text, m)| check(&String::from_utf8_lossy(&mutate(&text, &m))),
+        )
+        .unwrap();
+}
+
+#[test]
+fn generated_scenes_never_panic_and_round_trip() {
+    generated_campaign(cases(1500));
+}
+
+#[test]
+fn mutated_scenes_never_panic() {
+    mutated_campaign(cases(1500));
+}
+
+#[test]
+fn mutated_shipped_scenes_never_panic() {
+    shipped_campaign(cases(1000));
+}
+
+/// The long campaign: a million scene files (0.4 million generated, 0.4 million mutated, 0.2
+/// million mutated shipped scenes), unless `WETCLOTH_FUZZ_CASES` says otherwise (per part).
+#[test]
+#[ignore = "long fuzz campaign: run with --ignored"]
+fn long_campaign_a_million_scene_files() {
+    let per = |share: u32| {
+        std::env::var("WETCLOTH_FUZZ_CASES")
+            .ok()
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or(share)
+    };
+    generated_campaign(per(400_000));
+    mutated_campaign(per(400_000));
+    shipped_campaign(per(200_000));
+}
