@@ -18,6 +18,9 @@ pub enum CliError {
         /// The output directory.
         dir: PathBuf,
     },
+    /// Bad input other than a scene file: a missing or damaged run folder. Exit code 2.
+    #[error("{0}")]
+    Input(String),
     /// Rendering or plotting failed (a missing or malformed run directory, no graphics
     /// adapter). Exit code 1.
     #[error("{0}")]
@@ -40,7 +43,7 @@ impl CliError {
     /// The process exit code: 2 for bad input, 1 for a failed run.
     pub fn exit_code(&self) -> u8 {
         match self {
-            CliError::Scene(_) => 2,
+            CliError::Scene(_) | CliError::Input(_) => 2,
             CliError::BlowUp { .. }
             | CliError::Output { .. }
             | CliError::Setup(_)

@@ -1,7 +1,8 @@
 //! `wetcloth run [SCENE] [--out DIR]`: run a scene and write its frames and metrics.
 //!
-//! The run directory holds `frames/frame_NNNN.obj` (one mesh per written frame), `metrics.csv`
-//! (one row per frame), `scene.toml` (the scene with every key explicit) and `run.json`. Frame
+//! The run directory holds `frames/frame_NNNN.obj` (one mesh per written frame), `rest.obj` (a
+//! copy of frame 0, the mesh point caches apply to), `metrics.csv` (one row per frame),
+//! `scene.toml` (the scene with every key explicit) and `run.json`; with `--export`, caches. Frame
 //! `k` is the state at the first step whose time is at least `k / frame_rate`; frame 0 is the
 //! state at t = 0. Every file is complete on disk as soon as it is named: frames are written to
 //! a temporary name and renamed, metrics rows are flushed one by one, so a run that blows up (or
@@ -36,6 +37,11 @@ pub struct RunArgs {
     /// not depend on it.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub threads: Option<u32>,
+
+    /// Also write these caches when the run completes, as `wetcloth export` does: a comma list
+    /// of pc2, mdd, usda, usdc (e.g. `usdc,pc2`), each to DIR/<scene name>.<extension>.
+    #[arg(long, value_name = "FORMATS", value_parser = crate::export::parse_format_list)]
+    pub export: Option<crate::export::FormatList>,
 }
 
 /// Units of the metrics columns, for the summary.
@@ -109,6 +115,7 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
     let uvs = grid.uvs();
 
     let start = Instant::now();
+    let rest_dir = dir.clone();
     let mut write_frame = |sim: &Simulation, k: u64| -> Result<(), CliError> {
         let path = frames_dir.join(frame_file_name(k));
         let part = frames_dir.join(format!("{}.part", frame_file_name(k)));
@@ -122,6 +129,14 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
         fs::rename(&part, &path).map_err(CliError::output(&path))?;
         csv.write_row(k, &sim.metrics())
             .map_err(CliError::output(&csv_path))?;
+        if k == 0 {
+            wetcloth_export::write_rest_obj(&rest_dir).map_err(|e| match e {
+                wetcloth_export::ExportError::Output { path, source } => {
+                    CliError::Output { path, source }
+                }
+                e => CliError::Setup(e.to_string()),
+            })?;
+        }
         write_run_json(&json_path, &scene.name, &config, k + 1, k == last)
     };
 
@@ -150,6 +165,10 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
 
     if !quiet {
         print_summary(&scene, &sim, &dir, last + 1, wall);
+    }
+    if let Some(list) = &args.export {
+        let formats: Vec<_> = list.0.iter().map(|f| (*f, None)).collect();
+        crate::export::write_caches(&dir, &formats, quiet)?;
     }
     Ok(())
 }
