@@ -107,7 +107,7 @@ for fmt in ("pc2", "mdd"):
             top_file = max(p[1] for p in want)
             ok = len(local) == len(want) and err <= 1.0 and abs(top_world - top_file) < 1e-6
             print(
-                f"{fmt} {mode.lower()} frame {k}: {len(local)} vertices, largest difference "
+                f"{fmt} ({mode.lower()} mode) frame {k}: {len(local)} vertices, largest difference "
                 f"{err:.2f} float32 ulps, highest point {top_world:.5f} m (file {top_file:.5f} m)"
                 + ("" if ok else "  <-- MISMATCH")
             )

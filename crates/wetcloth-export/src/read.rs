@@ -90,6 +90,8 @@ pub(crate) fn read_obj_frame_from(
             break;
         }
         number += 1;
+        // Every line of a frame ends in a newline: one that does not is where the file was cut.
+        let cut = !bufs.line.ends_with('\n');
         let line = bufs.line.trim_end();
         let mut words = line.split_ascii_whitespace();
         let target = match words.next() {
@@ -108,10 +110,12 @@ pub(crate) fn read_obj_frame_from(
                 .and_then(|w| w.parse().ok())
                 .filter(|v: &f64| v.is_finite())
                 .ok_or_else(|| {
-                    (
-                        Some(number),
-                        format!("expected three finite numbers, found `{line}`"),
-                    )
+                    let msg = if cut {
+                        format!("the file ends inside this line (truncated): `{line}`")
+                    } else {
+                        format!("expected three finite numbers, found `{line}`")
+                    };
+                    (Some(number), msg)
                 })?;
             *c = v as f32;
         }
@@ -163,6 +167,12 @@ mod tests {
                 .unwrap_err()
                 .0,
             Some(8)
+        );
+        let (line, msg) = read_obj_frame_from(&TWO.as_bytes()[..28], 2, 1, &mut b).unwrap_err();
+        assert_eq!(line, Some(4));
+        assert!(
+            msg.contains("ends inside this line (truncated): `v 3.5 -4`"),
+            "{msg}"
         );
         let cut = &TWO[..TWO.find("vn").unwrap()];
         let (line, msg) = read_obj_frame_from(cut.as_bytes(), 2, 1, &mut b).unwrap_err();
