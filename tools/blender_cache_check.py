@@ -122,7 +122,7 @@ if render_png:
     cloth_mat = bpy.data.materials.new("satin")
     cloth_mat.use_nodes = True
     bsdf = cloth_mat.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (0.55, 0.08, 0.12, 1)
+    bsdf.inputs["Base Color"].default_value = (0.42, 0.04, 0.08, 1)
     bsdf.inputs["Roughness"].default_value = 0.35
     obj.data.materials.append(cloth_mat)
     size = max(run["size"])
@@ -132,8 +132,8 @@ if render_png:
     table.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.6, 0.6, 0.58, 1)
     bpy.context.object.data.materials.append(table)
     bpy.ops.object.light_add(type="SUN", location=(0, 0, 2), rotation=(0.6, 0.2, 0.8))
-    bpy.context.object.data.energy = 4
-    bpy.ops.object.camera_add(location=(1.1 * size, -1.6 * size, 1.0 * size))
+    bpy.context.object.data.energy = 3
+    bpy.ops.object.camera_add(location=(0.95 * size, -1.35 * size, 0.75 * size))
     cam = bpy.context.object
     target = bpy.data.objects.new("target", None)
     scene.collection.objects.link(target)

@@ -75,12 +75,12 @@ pub fn write_caches(
         for job in &jobs {
             let size = std::fs::metadata(&job.out).map(|m| m.len()).unwrap_or(0);
             println!(
-                "wrote {} ({}: {} frames of {} vertices, {:.1} MB)",
+                "wrote {} ({}: {} frames of {} vertices, {})",
                 job.out.display(),
                 job.format,
                 folder.info.frames,
                 nx * nz,
-                size as f64 / 1e6
+                bytes(size)
             );
         }
         println!(
@@ -89,6 +89,18 @@ pub fn write_caches(
         );
     }
     Ok(())
+}
+
+/// A file size for people: kB, MB or GB (powers of 1000), one decimal.
+fn bytes(n: u64) -> String {
+    let n = n as f64;
+    if n < 1e6 {
+        format!("{:.1} kB", n / 1e3)
+    } else if n < 1e9 {
+        format!("{:.1} MB", n / 1e6)
+    } else {
+        format!("{:.1} GB", n / 1e9)
+    }
 }
 
 fn from_export(e: ExportError) -> CliError {

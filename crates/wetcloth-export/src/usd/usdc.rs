@@ -171,7 +171,17 @@ impl<W: Write + Seek> UsdcWriter<W> {
         // Token 0 is never a property name: a property's element token is stored negated, and
         // -0 would read as a prim.
         t.token("");
-        let stage = self.stage.clone();
+        // The stage is not needed after this: take it rather than copy its arrays.
+        let stage = std::mem::replace(
+            &mut self.stage,
+            Stage {
+                doc: String::new(),
+                frame_rate: 0.0,
+                start: 0.0,
+                end: 0.0,
+                root: Prim::new("", ""),
+            },
+        );
         self.pseudo_root(&mut t, &stage)?;
         self.sections(&t)
     }
@@ -603,6 +613,96 @@ mod tests {
         assert_eq!(b.len(), 4 + long.len());
         let b = lz4_literals(&[1; 15]);
         assert_eq!(b[..3], [0, 0xf0, 0]);
+    }
+
+    /// The file's frame: header, table of contents, tokens, and each frame's points where the
+    /// time samples say. (USD itself reads these files in the `wetcloth-cli` export tests.)
+    #[test]
+    fn header_toc_and_frame_arrays_are_where_they_are_said_to_be() {
+        use crate::RunInfo;
+        use std::io::Cursor;
+        let mut cfg = wetcloth::SimConfig::default();
+        cfg.cloth.resolution = [2, 2];
+        let run = RunInfo::new("t", &cfg, 2, true);
+        let spec = CacheSpec {
+            run: &run,
+            frames: 2,
+            triangles: &[[0, 3, 1], [0, 2, 3]],
+            uvs: &[[0.0; 2]; 4],
+            params: &[],
+        };
+        let mut w = UsdcWriter::new(Cursor::new(Vec::new()), &spec).unwrap();
+        let frames: Vec<Vec<[f32; 3]>> = (0..2)
+            .map(|k| (0..4).map(|v| [v as f32, k as f32, -1.5]).collect())
+            .collect();
+        for (k, p) in frames.iter().enumerate() {
+            w.write_frame_impl(&Frame {
+                index: k as u64,
+                positions: p,
+                normals: p,
+            })
+            .unwrap();
+        }
+        let offsets = w.offsets.clone();
+        w.finish_impl().unwrap();
+        let b = w.into_inner().into_inner();
+        let u64_at = |i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
+        assert_eq!(&b[..8], b"PXR-USDC");
+        assert_eq!(b[8..16], [0, 8, 0, 0, 0, 0, 0, 0]);
+        let toc = u64_at(16) as usize;
+        assert!(b[24..88].iter().all(|&x| x == 0));
+        assert_eq!(u64_at(toc), 6);
+        let mut end = 0;
+        for (i, name) in ["TOKENS", "STRINGS", "FIELDS", "FIELDSETS", "PATHS", "SPECS"]
+            .iter()
+            .enumerate()
+        {
+            let at = toc + 8 + 32 * i;
+            assert_eq!(&b[at..at + name.len()], name.as_bytes());
+            assert!(b[at + name.len()..at + 16].iter().all(|&x| x == 0));
+            let (start, size) = (u64_at(at + 16) as usize, u64_at(at + 24) as usize);
+            assert!(
+                i == 0 || start == end,
+                "{name} follows the previous section"
+            );
+            end = start + size;
+        }
+        assert_eq!(end, toc, "the table of contents follows the last section");
+        // Tokens: count, byte size, then a literal LZ4 block of zero-terminated names.
+        let tokens_at = u64_at(toc + 8 + 16) as usize;
+        let chars = u64_at(tokens_at + 8) as usize;
+        let block = &b[tokens_at + 24..];
+        assert_eq!(
+            (block[0], block[1]),
+            (0, 0xf0),
+            "one chunk, over 15 literals"
+        );
+        let mut at = 2;
+        let mut len = 15;
+        while block[at] == 255 {
+            len += 255;
+            at += 1;
+        }
+        len += block[at] as usize;
+        assert_eq!(len, chars);
+        let text = &block[at + 1..at + 1 + chars];
+        assert_eq!(text[0], 0, "token 0 is empty");
+        for name in ["cloth", "points", "normals", "faceVertexIndices", "upAxis"] {
+            let t = format!("\0{name}\0");
+            assert!(
+                text.windows(t.len()).any(|w| w == t.as_bytes()),
+                "token {name}"
+            );
+        }
+        // Each frame's points: u64 count 4, then the f32 triples.
+        for (k, p) in frames.iter().enumerate() {
+            let at = offsets[0][k] as usize;
+            assert_eq!(u64_at(at), 4);
+            let got: Vec<f32> = (0..12)
+                .map(|i| f32::from_le_bytes(b[at + 8 + 4 * i..at + 12 + 4 * i].try_into().unwrap()))
+                .collect();
+            assert_eq!(got, p.concat());
+        }
     }
 
     #[test]
