@@ -21,10 +21,10 @@ mod csv;
 mod export;
 mod obj;
 mod params;
-mod pointcache;
+pub mod pointcache;
 mod read;
 mod run_json;
-mod usd;
+pub mod usd;
 
 pub use cache::{CacheFormat, CacheSpec, CacheWriter, Frame};
 pub use csv::{CSV_HEADER, MetricsCsv, csv_header};

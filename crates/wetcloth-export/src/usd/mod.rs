@@ -1,7 +1,7 @@
 //! USD stages of a run: one description, two encodings ([`UsdaWriter`] text, [`UsdcWriter`]
 //! binary).
 //!
-//! The stage ([`build_stage`]):
+//! The stage (`build_stage`):
 //!
 //! ```text
 //! #usda 1.0  (upAxis = "Y", metersPerUnit = 1, timeCodesPerSecond = framesPerSecond = the run's
@@ -15,9 +15,9 @@
 //!         def Cube "box_2"       size 2, xformOp:translate and xformOp:scale (half extents)
 //! ```
 //!
-//! Everything but the cloth's per-frame attributes is small and held in memory ([`Prim`],
-//! [`Attr`]); the per-frame attributes are [`Data::Streamed`]: each writer puts a frame's values
-//! in its file as the frame arrives. A collider that moves is an [`XformOps`] with key frames:
+//! Everything but the cloth's per-frame attributes is small and held in memory (`Prim`,
+//! `Attr`); the per-frame attributes are `Data::Streamed`: each writer puts a frame's values
+//! in its file as the frame arrives. A collider that moves is an `XformOps` with key frames:
 //! USD interpolates time samples linearly and holds the value after the last, as wetcloth does.
 
 mod usda;
