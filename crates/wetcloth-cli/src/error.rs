@@ -18,6 +18,9 @@ pub enum CliError {
         /// The output directory.
         dir: PathBuf,
     },
+    /// Bad input other than a scene file: a missing or damaged run folder. Exit code 2.
+    #[error("{0}")]
+    Input(String),
     /// Rendering or plotting failed (a missing or malformed run directory, no graphics
     /// adapter). Exit code 1.
     #[error("{0}")]
@@ -57,7 +60,7 @@ impl CliError {
     /// one.
     pub fn exit_code(&self) -> u8 {
         match self {
-            CliError::Scene(_) | CliError::Usage(_) => 2,
+            CliError::Scene(_) | CliError::Usage(_) | CliError::Input(_) => 2,
             CliError::Interrupted { .. } => 130,
             CliError::BlowUp { .. }
             | CliError::Output { .. }

@@ -2,12 +2,13 @@
 //!
 //! Each subcommand lives in its own module; this file only parses the arguments, sets up what
 //! every subcommand shares (the thread pool) and turns the outcome into an exit code:
-//! 0 on success, 2 for bad input (arguments, scene files), 1 when a run fails (the simulation
+//! 0 on success, 2 for bad input (arguments, scene files, damaged run folders), 1 when a run fails (the simulation
 //! blows up, or its outputs cannot be written).
 
 mod bench;
 mod error;
 mod estimate;
+mod export;
 mod interrupt;
 mod render;
 mod run;
@@ -48,6 +49,9 @@ enum Command {
     Render(wetcloth_render::RenderOptions),
     /// Plot a run's metrics.csv over time into RUN_DIR/metrics.png.
     Plot(render::PlotArgs),
+    /// Write a run's frames as one animation cache (PC2, MDD, USD) and RUN_DIR/rest.obj, the
+    /// mesh the point caches apply to.
+    Export(export::ExportArgs),
     /// Open the interactive demo window: pull the wet cloth off the table with the mouse.
     View(view::ViewArgs),
 }
@@ -86,13 +90,14 @@ fn dispatch(mut cli: Cli) -> Result<(), CliError> {
                 args.threads.get_or_insert_with(|| vec![n as u32]);
             }
         }
-        Command::Render(_) | Command::Plot(_) => {}
+        Command::Render(_) | Command::Plot(_) | Command::Export(_) => {}
     }
     match &cli.command {
         Command::Run(args) => run::run(args, cli.quiet),
         Command::Bench(args) => bench::bench(args, cli.quiet),
         Command::Render(opts) => render::render(opts, cli.quiet),
         Command::Plot(args) => render::plot(args, cli.quiet),
+        Command::Export(args) => export::export(args, cli.quiet),
         Command::View(args) => view::view(args),
     }
 }

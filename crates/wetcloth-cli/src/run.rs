@@ -1,7 +1,8 @@
 //! `wetcloth run [SCENE] [--out DIR]`: run a scene and write its frames and metrics.
 //!
-//! The run directory holds `frames/frame_NNNN.obj` (one mesh per written frame), `metrics.csv`
-//! (one row per frame), `scene.toml` (the scene with every key explicit) and `run.json`. Frame
+//! The run directory holds `frames/frame_NNNN.obj` (one mesh per written frame), `rest.obj` (a
+//! copy of frame 0, the mesh point caches apply to), `metrics.csv` (one row per frame),
+//! `scene.toml` (the scene with every key explicit) and `run.json`; with `--export`, caches. Frame
 //! `k` is the state at the first step whose time is at least `k / frame_rate`; frame 0 is the
 //! state at t = 0. Every file is complete on disk as soon as it is named: frames, `scene.toml`
 //! and `run.json` are written to `NAME.part` (never following a link left there) and renamed,
@@ -50,6 +51,11 @@ pub struct RunArgs {
     /// refused before anything is written).
     #[arg(long)]
     pub force: bool,
+
+    /// Also write these caches when the run completes, as `wetcloth export` does: a comma list
+    /// of pc2, mdd, usda, usdc (e.g. `usdc,pc2`), each to DIR/<scene name>.<extension>.
+    #[arg(long, value_name = "FORMATS", value_parser = crate::export::parse_format_list)]
+    pub export: Option<crate::export::FormatList>,
 }
 
 /// Units of the metrics columns, for the summary.
@@ -170,6 +176,14 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
             .map_err(CliError::output(&path))?;
             csv.write_row(k, &sim.metrics())
                 .map_err(CliError::output(&csv_path))?;
+            if k == 0 {
+                wetcloth_export::write_rest_obj(&dir).map_err(|e| match e {
+                    wetcloth_export::ExportError::Output { path, source } => {
+                        CliError::Output { path, source }
+                    }
+                    e => CliError::Setup(e.to_string()),
+                })?;
+            }
             let status = if k == last {
                 RunStatus::Complete
             } else {
@@ -219,6 +233,10 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
             progress.finish_and_clear();
             if !quiet {
                 print_summary(&scene, &sim, &dir, written, start.elapsed());
+            }
+            if let Some(list) = &args.export {
+                let formats: Vec<_> = list.0.iter().map(|f| (*f, None)).collect();
+                crate::export::write_caches(&dir, &formats, quiet)?;
             }
             Ok(())
         }

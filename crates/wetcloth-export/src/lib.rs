@@ -6,7 +6,11 @@
 //!   normals; vertex `k` is particle `k` in every frame, so Blender can import a sequence);
 //! - [`MetricsCsv`]: `metrics.csv`, one row per written frame, columns [`CSV_HEADER`];
 //! - [`RunInfo`] and [`write_run_json`]: `run.json`, what a renderer needs to know about the
-//!   run (the cloth's layout, the colliders, the grabbed particles, the frame count).
+//!   run (the cloth's layout, the colliders, the grabbed particles, the frame count);
+//! - caches of a whole run for animation packages ([`cache`]): PC2 and MDD point caches
+//!   ([`Pc2Writer`], [`MddWriter`]) and USD stages ([`UsdaWriter`], [`UsdcWriter`]), each a
+//!   [`CacheWriter`] fed one frame at a time, and [`export_run`], which reads a run folder's
+//!   frames back ([`read_obj_frame`]) and writes the caches and `rest.obj`.
 //!
 //! Files that must never be seen half written go through [`write_atomically`] (a temporary
 //! `NAME.part`, never followed if a stale link sits there, and a rename).
@@ -16,14 +20,28 @@
 //! `1e-20` does not become twenty zeros.
 
 mod atomic;
+pub mod cache;
 mod csv;
+mod export;
 mod obj;
+mod params;
+pub mod pointcache;
+mod read;
 mod run_json;
+pub mod usd;
 
 pub use atomic::{create_fresh, part_path, remove_if_present, write_atomically};
+pub use cache::{CacheFormat, CacheSpec, CacheWriter, Frame};
 pub use csv::{CSV_HEADER, MetricsCsv, csv_header};
+pub use export::{
+    ExportError, ExportJob, REST_OBJ, RunFolder, export_run, read_run_folder, write_rest_obj,
+};
 pub use obj::write_obj;
+pub use params::{ParamValue, SceneParam, scene_params};
+pub use pointcache::{MddWriter, PC2_SIGNATURE, Pc2Writer};
+pub use read::{FrameBuffers, FrameError, read_obj_frame};
 pub use run_json::{RunInfo, RunStatus, write_run_json, write_run_json_file};
+pub use usd::{PLANE_HALF_SIDE, PLANE_MIN_HALF_SIDE, UsdaWriter, UsdcWriter};
 
 /// `v` as the shortest decimal text that parses back to the same value (Rust's `{:?}`
 /// formatting of `f64`: `0.1`, `101325.0`, `1.5e-20`).

@@ -173,9 +173,21 @@ impl Collider {
     }
 }
 
-/// Largest magnitude of a collider's position coordinates, m (a thousand kilometres: a scene is
-/// metres across, and 32-bit renderers lose anything much farther out).
+/// Largest magnitude of a solid collider's position coordinates, m (a thousand kilometres: a
+/// scene is metres across, and 32-bit renderers lose anything much farther out).
 pub const MAX_POSITION: Real = 1e6;
+
+/// `Err` naming `key` unless `v` is finite.
+pub(crate) fn require_finite(key: String, v: Vec3) -> Result<(), ConfigError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            key,
+            message: "must be finite".into(),
+        })
+    }
+}
 
 /// `Err` naming `key` unless every component of the position `v` (m) is within
 /// [`MAX_POSITION`] of the origin.
@@ -185,7 +197,7 @@ pub(crate) fn require_position(key: String, v: Vec3) -> Result<(), ConfigError> 
     } else {
         Err(ConfigError::OutOfRange {
             key,
-            value: format!("[{}, {}, {}]", v.x, v.y, v.z),
+            value: format!("[{:e}, {:e}, {:e}]", v.x, v.y, v.z),
             range: format!("each component in [-{MAX_POSITION:e}, {MAX_POSITION:e}] m"),
         })
     }

@@ -1,7 +1,7 @@
 //! The infinite plane: the thesis' sticking surface (a desk, a floor), and its vectorised
 //! contact row.
 
-use super::require_position;
+use super::require_finite;
 use crate::error::ConfigError;
 use crate::math::{Real, RowMut, RowRef, Vec3};
 
@@ -14,7 +14,8 @@ use crate::math::{Real, RowMut, RowRef, Vec3};
     serde(from = "PlaneRepr", into = "PlaneRepr")
 )]
 pub struct Plane {
-    /// A point on the plane, m. Scene default (0, 0, 0); each component in [-1e6, 1e6].
+    /// A point on the plane, m. Scene default (0, 0, 0); any finite point (a cloth must start
+    /// on its outer side, within 1e4 m of the sticking plane: the scene reader checks).
     pub point: Vec3,
     /// Unit normal, pointing out of the solid. Scene default (0, 1, 0); any non-zero vector,
     /// normalised.
@@ -29,7 +30,7 @@ impl Plane {
     }
 
     pub(crate) fn validate(&self, key: &dyn Fn(&str) -> String) -> Result<(), ConfigError> {
-        require_position(key("point"), self.point)?;
+        require_finite(key("point"), self.point)?;
         if !self.normal.is_finite() || (self.normal.length() - 1.0).abs() > 1e-9 {
             return Err(ConfigError::Invalid {
                 key: key("normal"),
