@@ -11,20 +11,19 @@ use plotters::prelude::*;
 
 use crate::error::RenderError;
 
-/// The columns of `metrics.csv` the plot reads (units: frame number, s, m^3, Pa, J, ratio,
-/// ratio, m, N). A run's `metrics.csv` has one more, `trapped_air` (m^3), which the plot does
-/// not draw; extra columns are ignored.
-pub const COLUMNS: [&str; 9] = [
-    "frame",
-    "time",
-    "air_volume",
-    "air_pressure",
-    "kinetic_energy",
-    "max_stretch",
-    "contact_fraction",
-    "max_height",
-    "grab_force",
-];
+/// The columns of `metrics.csv` the plot reads: `frame` and the core's own list
+/// ([`wetcloth::metrics::COLUMNS`]; units: frame number, s, m^3, Pa, J, ratio, ratio, m, N,
+/// m^3). Extra columns are ignored.
+pub const COLUMNS: [&str; 1 + wetcloth::metrics::COLUMNS.len()] = {
+    let core = wetcloth::metrics::COLUMNS;
+    let mut out = ["frame"; 1 + wetcloth::metrics::COLUMNS.len()];
+    let mut i = 0;
+    while i < core.len() {
+        out[i + 1] = core[i];
+        i += 1;
+    }
+    out
+};
 
 /// The metrics of a run, one vector per column, one entry per frame.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -47,6 +46,8 @@ pub struct Metrics {
     pub max_height: Vec<f64>,
     /// Magnitude of the grabs' reaction force, N.
     pub grab_force: Vec<f64>,
+    /// Air trapped under the cloth, m^3 at atmospheric pressure.
+    pub trapped_air: Vec<f64>,
 }
 
 impl Metrics {
@@ -61,6 +62,7 @@ impl Metrics {
             "contact_fraction" => &mut self.contact_fraction,
             "max_height" => &mut self.max_height,
             "grab_force" => &mut self.grab_force,
+            "trapped_air" => &mut self.trapped_air,
             _ => return None,
         })
     }
@@ -162,7 +164,7 @@ fn scaled(v: &[f64], k: f64) -> Vec<f64> {
     v.iter().map(|x| x * k).collect()
 }
 
-const PANELS: [Panel; 7] = [
+const PANELS: [Panel; 8] = [
     Panel {
         label: "air pressure (kPa)",
         colour: RGBColor(200, 60, 50),
@@ -172,6 +174,11 @@ const PANELS: [Panel; 7] = [
         label: "air volume (cm³)",
         colour: RGBColor(40, 110, 190),
         values: |m| scaled(&m.air_volume, 1e6),
+    },
+    Panel {
+        label: "trapped air (cm³ at P_a)",
+        colour: RGBColor(90, 140, 210),
+        values: |m| scaled(&m.trapped_air, 1e6),
     },
     Panel {
         label: "grab force (N)",

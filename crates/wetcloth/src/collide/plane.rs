@@ -96,6 +96,7 @@ impl PlaneContact {
 /// [`super::contact::resolve`] (projection by the depth, then friction removing at most
 /// `mu depth` of the tangential step since `here`), computed for every particle with the depth
 /// clamped to 0 for those that do not touch. Sets `contact[i]` for those that touch.
+#[inline(always)]
 pub(crate) fn contact_row(
     p: &PlaneContact,
     here: RowRef<'_>,

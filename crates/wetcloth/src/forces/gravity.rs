@@ -11,7 +11,7 @@ pub fn weight_and_damping(mass: Real, gravity: Vec3, damping: Real, velocity: Ve
 
 /// Starts the forces of a row: `force = weight - damp * (here - prev)`, the weight `m g` (N)
 /// and Verlet's damping with `damp = damping * m / dt` (kg/s^2) on the step `here - prev` (m).
-#[inline]
+#[inline(always)]
 pub(crate) fn set_row(
     force: &mut RowMut<'_>,
     here: RowRef<'_>,

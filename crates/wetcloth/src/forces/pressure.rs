@@ -15,6 +15,7 @@ pub fn pressure_force(bubble: Real, atmosphere: Real, area: Real, normal: Vec3) 
 /// and `N` the unit normal of [`crate::Grid::normal`]: the cross product of the central
 /// differences along z and x (rows `below` and `above` are the neighbouring rows, or the row
 /// itself at the border; one-sided differences at the border columns).
+#[inline(always)]
 pub(crate) fn add_row(
     force: &mut RowMut<'_>,
     here: RowRef<'_>,

@@ -190,7 +190,7 @@ impl RowSprings {
 /// springs (`cur`), then as the end of the springs of this row (to the left) and of the
 /// previous row (`prv`). Interior particles (the common case) sum all eight in one loop; border
 /// rows and columns add the terms they have one by one.
-#[inline]
+#[inline(always)]
 pub(crate) fn add_row(
     force: &mut RowMut<'_>,
     cur: &RowSprings,
@@ -212,6 +212,7 @@ pub(crate) fn add_row(
 }
 
 /// Adds the eight spring forces of every interior particle `1..nx-1` of a row in one pass.
+#[inline(always)]
 fn add_interior(f: &mut RowMut<'_>, cur: &RowSprings, prv: &RowSprings) {
     let n = f.x.len() - 2;
     for c in 0..3 {

@@ -39,6 +39,8 @@ pub(crate) struct Verlet {
     saved_prev: Vec<Vec3>,
     /// The cell measures of the coasting positions (for an end-of-step pressure).
     coast: measure::Measures,
+    /// Each row's largest squared move from the self-collision reference, m^2.
+    moved: Vec<Real>,
 }
 
 /// The springs of the current and the previous row.
@@ -100,6 +102,7 @@ impl Verlet {
             springs: RowPair::new(nx),
             saved_prev: Vec::new(),
             coast: measure::Measures::new(n / nx),
+            moved: vec![0.0; n / nx],
         }
     }
 
@@ -110,6 +113,7 @@ impl Verlet {
             + self.springs.previous.heap_bytes()
             + self.saved_prev.capacity() * std::mem::size_of::<Vec3>()
             + self.coast.heap_bytes()
+            + self.moved.capacity() * std::mem::size_of::<Real>()
     }
 
     /// One step of `dt` s: forces, position Verlet, contacts, the hand. Returns the largest
@@ -155,29 +159,26 @@ impl Verlet {
         let mut blocks = Blocks {
             nx,
             rows,
-            held: &control.held,
+            moved: &mut self.moved,
             force: &mut self.force,
             contact: &mut state.contact,
             measures: &mut fused.measures.rows,
             springs: &mut self.springs,
         };
         let prev: &mut Soa = prev;
-        let (moved2, solved) = match load {
+        let solved = match load {
             AirLoad::Uniform(pressure) => {
                 // Forces, Verlet and contacts in one pass over the rows.
                 consts.pressure = pressure;
                 consts.pressure_area = pressure * model.area_per_particle;
-                let moved2 = blocks.run(prev, |b, springs| step_rows(&consts, x, b, springs));
-                (moved2, None)
+                blocks.run(prev, |b, springs| step_rows(&consts, x, b, springs));
+                None
             }
             AirLoad::EndOfStep(solve) => {
                 // Everything but the pressure first, to the coasting positions; the hands
                 // carry their particles; then the pressure of the end of the step, and the
                 // pressure's move and the contacts in a second pass.
-                blocks.run(prev, |b, springs| {
-                    coast_rows(&consts, x, b, springs);
-                    0.0
-                });
+                blocks.run(prev, |b, springs| coast_rows(&consts, x, b, springs));
                 for (k, target) in control.active() {
                     prev.set(k, target);
                 }
@@ -187,8 +188,8 @@ impl Verlet {
                 let pressure = solve.solve(model, prev, volume, &control.held);
                 consts.pressure = pressure - solve.atmosphere;
                 consts.pressure_area = consts.pressure * model.area_per_particle;
-                let moved2 = blocks.run(prev, |b, _| finish_rows(&consts, x, b));
-                (moved2, Some(pressure))
+                blocks.run(prev, |b, _| finish_rows(&consts, x, b));
+                Some(pressure)
             }
         };
         let p = prev;
@@ -230,6 +231,24 @@ impl Verlet {
             remeasure(fused.measures, &state.x, j.saturating_sub(1));
             remeasure(fused.measures, &state.x, j);
         }
+        // How far the particles moved from the self-collision lists' reference: the rows'
+        // maxima, with a hand's particle left out of its row (its position in the pass was
+        // free flight, which the hand overrode; the step measures the hand's own moves).
+        let moved2 = match fused.reference {
+            Some(reference) => {
+                for (k, _) in control.active() {
+                    let j = k / nx;
+                    let r = j * nx..(j + 1) * nx;
+                    self.moved[j] = max_distance2_free(
+                        row(&state.x, nx, j),
+                        row(reference, nx, j),
+                        &control.held[r],
+                    );
+                }
+                self.moved.iter().copied().fold(0.0, Real::max)
+            }
+            None => 0.0,
+        };
         (moved2, solved)
     }
 }
@@ -239,7 +258,8 @@ impl Verlet {
 struct Blocks<'a> {
     nx: usize,
     rows: Option<usize>,
-    held: &'a [bool],
+    /// Each row's largest squared move from the self-collision reference, m^2.
+    moved: &'a mut [Real],
     force: &'a mut Soa,
     contact: &'a mut [bool],
     measures: &'a mut [CellMeasures],
@@ -249,11 +269,11 @@ struct Blocks<'a> {
 
 impl Blocks<'_> {
     /// Runs `pass` on every block of `prev` (the previous positions, new ones on exit) and the
-    /// other buffers, returning the largest value it returns. The split never changes the
-    /// result: every particle's value is a fixed sequence of operations.
-    fn run<F>(&mut self, prev: &mut Soa, pass: F) -> Real
+    /// other buffers. The split never changes the result: every particle's value is a fixed
+    /// sequence of operations.
+    fn run<F>(&mut self, prev: &mut Soa, pass: F)
     where
-        F: Fn(Block<'_, '_>, &mut RowPair) -> Real + Sync,
+        F: Fn(Block<'_, '_>, &mut RowPair) + Sync,
     {
         let nx = self.nx;
         let (p, f) = (prev, &mut *self.force);
@@ -268,11 +288,11 @@ impl Blocks<'_> {
                 f.z.par_chunks_mut(block),
                 self.contact.par_chunks_mut(block),
                 self.measures.par_chunks_mut(rows),
-                self.held.par_chunks(block),
+                self.moved.par_chunks_mut(rows),
             )
                 .into_par_iter()
                 .enumerate()
-                .map(|(b, (px, py, pz, fx, fy, fz, contact, measures, held))| {
+                .for_each(|(b, (px, py, pz, fx, fy, fz, contact, measures, moved))| {
                     THREAD_SPRINGS.with_borrow_mut(|springs| {
                         if !springs.fits(nx) {
                             *springs = RowPair::new(nx);
@@ -291,12 +311,11 @@ impl Blocks<'_> {
                             },
                             contact,
                             measures,
-                            held,
+                            moved,
                         };
                         pass(block, springs)
                     })
-                })
-                .reduce(|| 0.0, Real::max)
+                });
         } else {
             let block = Block {
                 j0: 0,
@@ -312,7 +331,7 @@ impl Blocks<'_> {
                 },
                 contact: self.contact,
                 measures: self.measures,
-                held: self.held,
+                moved: self.moved,
             };
             pass(block, self.springs)
         }
@@ -320,14 +339,14 @@ impl Blocks<'_> {
 }
 
 /// The rows of one block: its previous positions (new ones on exit), forces, contact flags,
-/// cell measures and the hands' hold flags, starting at row `j0`.
+/// cell measures and rows' moves, starting at row `j0`.
 struct Block<'a, 'b> {
     j0: usize,
     prev: &'a mut RowMut<'b>,
     force: &'a mut RowMut<'b>,
     contact: &'a mut [bool],
     measures: &'a mut [CellMeasures],
-    held: &'a [bool],
+    moved: &'a mut [Real],
 }
 
 /// Forces, position Verlet and contacts for the block of rows `b` (as many rows as `b.prev`
@@ -340,7 +359,7 @@ struct Block<'a, 'b> {
 ///
 /// While the new positions are at hand it also measures them (see [`walk_rows`]) and returns
 /// the largest squared distance (m^2) of a new position from `c.reference`.
-fn step_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPair) -> Real {
+fn step_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPair) {
     if b.j0 > 0 {
         springs.previous.compute(&c.springs, x, b.j0 - 1, false);
     }
@@ -371,7 +390,7 @@ fn coast_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPa
 /// The second pass of a step with an end-of-step pressure: the pressure force (added to
 /// `b.force`) and its move from the coasting positions in `b.prev`, then the contacts, for the
 /// block of rows `b`; measures like [`step_rows`].
-fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>) -> Real {
+fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>) {
     walk_rows(c, b, true, |j, next, f, contact| {
         let here = row(x, c.grid.nx, j);
         // The pressure force, into the forces (for the hand's force) and, times h, into the
@@ -386,15 +405,14 @@ fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>) -> Real {
 /// if `measure`, measures the new positions while they are at hand: `b.measures[k]` receives
 /// [`measure::cells`] of rows `j0 + k` and `j0 + k + 1` for the cells inside the block (the
 /// last entry, whose next row belongs to the next block, is left for the caller, except on the
-/// grid's last row), and the return value is the largest squared distance (m^2) of a new
-/// position from `c.reference` (0 without one): the self-collision lists' skin test.
+/// grid's last row), and `b.moved[k]` the largest squared distance (m^2) of row `j0 + k`'s new
+/// positions from `c.reference` (without one, nothing): the self-collision lists' skin test.
 fn walk_rows(
     c: &StepConsts<'_>,
     b: Block<'_, '_>,
     measure: bool,
     mut row_fn: impl FnMut(usize, &mut RowMut<'_>, &mut RowMut<'_>, &mut [bool]),
-) -> Real {
-    let mut moved: Real = 0.0;
+) {
     let nx = c.grid.nx;
     let (j0, prev, force) = (b.j0, b.prev, b.force);
     let rows = prev.x.len() / nx;
@@ -415,8 +433,7 @@ fn walk_rows(
             continue;
         }
         if let Some(reference) = c.reference {
-            let held = &b.held[r.clone()];
-            moved = moved.max(max_distance2(p.as_ref(), row(reference, nx, j), held));
+            b.moved[j - j0] = max_distance2(p.as_ref(), row(reference, nx, j));
         }
         // The cells between the previous row and this one, both new now.
         let new_row = |k: usize| RowRef {
@@ -438,35 +455,35 @@ fn walk_rows(
             b.measures[k] = measure::cells(c.grid, new_row(k), None, c.sticking, c.radius);
         }
     }
-    moved
 }
 
-/// Largest squared distance between `a[i]` and `b[i]` over the `i` not `held`, m^2, with
-/// lane-wise maxima (it vectorises). A held particle's position here is the pass's free
-/// flight, which the hand overrides afterwards: it does not count (the step measures the
-/// hand's own moves).
-fn max_distance2(a: RowRef<'_>, b: RowRef<'_>, held: &[bool]) -> Real {
+/// Largest squared distance between `a[i]` and `b[i]`, m^2, over the `i` not `held`.
+fn max_distance2_free(a: RowRef<'_>, b: RowRef<'_>, held: &[bool]) -> Real {
+    (0..a.x.len())
+        .filter(|&i| !held[i])
+        .map(|i| (a.get(i) - b.get(i)).length_squared())
+        .fold(0.0, Real::max)
+}
+
+/// Largest squared distance between `a[i]` and `b[i]`, m^2, with lane-wise maxima (it
+/// vectorises).
+#[inline(always)]
+fn max_distance2(a: RowRef<'_>, b: RowRef<'_>) -> Real {
     let n = a.x.len();
-    let (bx, by, bz, held) = (&b.x[..n], &b.y[..n], &b.z[..n], &held[..n]);
+    let (bx, by, bz) = (&b.x[..n], &b.y[..n], &b.z[..n]);
     let mut lanes = [0.0 as Real; LANES];
     let full = n - n % LANES;
     for base in (0..full).step_by(LANES) {
         for (l, m) in lanes.iter_mut().enumerate() {
             let i = base + l;
             let (dx, dy, dz) = (a.x[i] - bx[i], a.y[i] - by[i], a.z[i] - bz[i]);
-            let d = if held[i] {
-                0.0
-            } else {
-                dx * dx + dy * dy + dz * dz
-            };
+            let d = dx * dx + dy * dy + dz * dz;
             *m = if d > *m { d } else { *m };
         }
     }
     for i in full..n {
         let (dx, dy, dz) = (a.x[i] - bx[i], a.y[i] - by[i], a.z[i] - bz[i]);
-        if !held[i] {
-            lanes[0] = lanes[0].max(dx * dx + dy * dy + dz * dz);
-        }
+        lanes[0] = lanes[0].max(dx * dx + dy * dy + dz * dz);
     }
     lanes.into_iter().fold(0.0, Real::max)
 }
@@ -498,7 +515,7 @@ fn step_row(
 
 /// Adds `scale` times the pressure force (eq. 3.7, by `c.pressure_law`) on row `j` of `x` to
 /// `out`; nothing when the pressure difference is 0.
-#[inline]
+#[inline(always)]
 fn add_pressure(c: &StepConsts<'_>, j: usize, x: &Soa, out: &mut RowMut<'_>, scale: Real) {
     if c.pressure == 0.0 {
         return;
@@ -527,7 +544,7 @@ fn add_pressure(c: &StepConsts<'_>, j: usize, x: &Soa, out: &mut RowMut<'_>, sca
 /// Position Verlet (eq. 3.1) for a row: `prev` holds `x(t - dt)` on entry and `x(t + dt)` on
 /// exit, written as `x + (x - x_prev) + F h` (`h` in s^2/kg): the step is added to `x`, not
 /// to `2x`, which halves the round-off for slow particles.
-#[inline]
+#[inline(always)]
 fn verlet_row(here: RowRef<'_>, prev: &mut RowMut<'_>, force: RowRef<'_>, h: Real) {
     let nx = here.x.len();
     let (fx, fy, fz) = (&force.x[..nx], &force.y[..nx], &force.z[..nx]);
@@ -542,7 +559,7 @@ fn verlet_row(here: RowRef<'_>, prev: &mut RowMut<'_>, force: RowRef<'_>, h: Rea
 /// Contacts of a row moving from `here` to `next`: normal force and Coulomb friction
 /// (eq. 3.4-3.5, see `collide::contact`), planes on the vectorised row, other shapes one
 /// particle at a time; `contact` flags the particles that touched.
-#[inline]
+#[inline(always)]
 fn contact_row(c: &StepConsts<'_>, here: RowRef<'_>, next: &mut RowMut<'_>, contact: &mut [bool]) {
     let nx = here.x.len();
     contact[..nx].fill(false);
