@@ -2,7 +2,7 @@
 //! quarantine, at one chokepoint: the end of every step).
 //!
 //! - **Non-finite** positions, and a structural spring past [`BLOWUP_STRETCH`] rest lengths
-//!   (measured every step in the integrator's pass, [`crate::measure`]).
+//!   (measured every step in the integrator's pass, the crate's private `measure` module).
 //! - **A negative bubble**: with the air force on, a gap volume below `-2 r A` (`r` the particle
 //!   radius, `A` the cloth's area) is more negative than any cloth lying folded flat can give;
 //!   the cloth has passed through the sticking surface or through itself, and Boyle's law
