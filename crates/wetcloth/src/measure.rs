@@ -42,6 +42,7 @@ pub(crate) fn cells(
     b: Option<RowRef<'_>>,
     plane: Option<StickingPlane>,
     offset: Real,
+    cell_volumes: Option<&mut [Real]>,
 ) -> CellMeasures {
     let nx = grid.nx;
     let m = nx - 1;
@@ -73,6 +74,7 @@ pub(crate) fn cells(
     // maxima reduce them.
     const CHUNK: usize = 64;
     let [ux, uy, uz] = [up.x, up.y, up.z];
+    let mut cell_volumes = cell_volumes;
     let mut vol = [0.0 as Real; LANES];
     let mut worst = [0.0 as Real; LANES];
     let (mut vbuf, mut sbuf) = ([0.0 as Real; CHUNK], [0.0 as Real; CHUNK]);
@@ -108,6 +110,11 @@ pub(crate) fn cells(
             let sz = if sd > se { sd } else { se };
             sb[k] = if sx > sz { sx } else { sz };
         }
+        if let Some(out) = cell_volumes.as_deref_mut() {
+            for (o, v) in out[start..start + n].iter_mut().zip(vb.iter()) {
+                *o = v / 6.0;
+            }
+        }
         for (vc, sc) in vb.chunks(LANES).zip(sb.chunks(LANES)) {
             for l in 0..vc.len() {
                 vol[l] += vc[l];
@@ -130,16 +137,23 @@ pub(crate) fn row_cells(
     j: usize,
     plane: Option<StickingPlane>,
     offset: Real,
+    cell_volumes: Option<&mut [Real]>,
 ) -> CellMeasures {
     let next = (j + 1 < grid.nz).then(|| row(x, grid.nx, j + 1));
-    cells(grid, row(x, grid.nx, j), next, plane, offset)
+    cells(grid, row(x, grid.nx, j), next, plane, offset, cell_volumes)
 }
 
 /// The measures of every row of cells of a state: row `j` holds the cells between rows `j`
-/// and `j + 1`.
+/// and `j + 1`; and, when kept, each cell's own gap volume.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Measures {
     pub rows: Vec<CellMeasures>,
+    /// Gap volume of each cell (eq. 3.10 over its two triangles), m^3, cell `(i, j)` at
+    /// `j * (nx - 1) + i` (one row per grid row, the last unused, so blocks of rows split it
+    /// evenly); written only if `keep_cells`.
+    pub cells: Vec<Real>,
+    /// Whether the measures keep each cell's volume (the pockets model needs them).
+    pub keep_cells: bool,
 }
 
 /// The sums of [`Measures`].
@@ -154,10 +168,12 @@ pub(crate) struct Totals {
 }
 
 impl Measures {
-    /// Room for a grid of `nz` rows.
-    pub fn new(nz: usize) -> Self {
+    /// Room for the rows of `grid`, keeping each cell's volume if `keep_cells`.
+    pub fn for_grid(grid: &Grid, keep_cells: bool) -> Self {
         Self {
-            rows: vec![CellMeasures::default(); nz],
+            rows: vec![CellMeasures::default(); grid.nz],
+            cells: vec![0.0; (grid.nx - 1) * grid.nz],
+            keep_cells,
         }
     }
 
@@ -170,7 +186,10 @@ impl Measures {
         plane: Option<StickingPlane>,
         offset: Real,
     ) {
-        self.rows[j] = row_cells(grid, x, j, plane, offset);
+        let m = grid.nx - 1;
+        let cells =
+            (self.keep_cells && j + 1 < grid.nz).then(|| &mut self.cells[j * m..(j + 1) * m]);
+        self.rows[j] = row_cells(grid, x, j, plane, offset, cells);
     }
 
     /// Re-measures every row from `x`, `rows_per_task` rows to a task on the pool if
@@ -183,8 +202,15 @@ impl Measures {
         offset: Real,
         parallel: Option<usize>,
     ) {
+        if self.keep_cells {
+            // With each cell's volume: row by row on this thread (pockets only).
+            for j in 0..grid.nz {
+                self.remeasure_row(grid, x, j, plane, offset);
+            }
+            return;
+        }
         let measure = |(j, out): (usize, &mut CellMeasures)| {
-            *out = row_cells(grid, x, j, plane, offset);
+            *out = row_cells(grid, x, j, plane, offset, None);
         };
         match parallel {
             Some(rows) => self
@@ -217,6 +243,7 @@ impl Measures {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         self.rows.capacity() * std::mem::size_of::<CellMeasures>()
+            + self.cells.capacity() * std::mem::size_of::<Real>()
     }
 }
 
@@ -246,7 +273,7 @@ mod tests {
         };
         let reference = crate::air::volume(&grid, &p, plane, 0.001);
         let fast: Real = (0..grid.nz)
-            .map(|j| row_cells(&grid, &p, j, Some(plane), 0.001).volume)
+            .map(|j| row_cells(&grid, &p, j, Some(plane), 0.001, None).volume)
             .sum();
         assert!(
             (fast - reference).abs() < 1e-14 * reference.abs(),
@@ -262,7 +289,7 @@ mod tests {
             ..Default::default()
         });
         let mut p = grid.rest_positions(Vec3::ZERO);
-        let mut m = Measures::new(grid.nz);
+        let mut m = Measures::for_grid(&grid, false);
         m.remeasure_all(&grid, &p, None, 0.0, None);
         let t = m.totals();
         assert!(t.finite && (t.stretch2 - 1.0).abs() < 1e-12);

@@ -1,6 +1,6 @@
 //! The simulation and its step (thesis 3.2, fig. 3.4).
 
-use crate::air::{AirModel, Bubble};
+use crate::air::AirModel;
 use crate::checks::{self, EnergyAudit};
 use crate::collide::contact;
 use crate::collide::self_collision::SelfCollision;
@@ -8,7 +8,7 @@ use crate::constraints::strain_limit;
 use crate::control::{Control, Grab, GrabMotion};
 use crate::error::{ConfigError, StepError};
 use crate::exec;
-use crate::integrate::{Fused, IntegratorState};
+use crate::integrate::{Air, Fused, IntegratorState};
 use crate::math::{Real, Soa, Vec3};
 use crate::measure::Measures;
 use crate::metrics::FrameMetrics;
@@ -61,13 +61,13 @@ impl Simulation {
         let mut sim = Self {
             state: State::at_rest(model.grid.rest_positions(config.cloth.position)),
             control,
-            air: AirModel::new(&config.air),
+            air: AirModel::Thesis(crate::air::Bubble::new(config.air.trapped_air)),
             integrator: IntegratorState::new(config.simulation.integrator, &model),
             self_collision: config
                 .cloth
                 .self_collision
                 .then(|| SelfCollision::new(n, 2.0 * model.radius)),
-            measures: Measures::new(model.grid.nz),
+            measures: Measures::for_grid(&model.grid, AirModel::keeps_cells(&config.air)),
             strain: strain_limit::Scratch::default(),
             audit: EnergyAudit::default(),
             model,
@@ -78,6 +78,19 @@ impl Simulation {
                 key: "cloth.position".into(),
                 message: e.to_string(),
             })?;
+        // The air of the start: measured, then the model built on it.
+        sim.air = AirModel::new(&sim.config.air, &sim.model, &sim.state, &sim.measures);
+        if sim.air.bubble().is_some() {
+            let volume = sim.measures.totals().volume;
+            sim.air.finish_step(
+                &sim.config.air,
+                &sim.model,
+                &sim.state,
+                &sim.measures,
+                volume,
+                0.0,
+            );
+        }
         sim.settle_air_history();
         sim.restart_audit();
         Ok(sim)
@@ -158,34 +171,47 @@ impl Simulation {
         self.config.simulation.time_step
     }
 
-    fn bubble(&self) -> &Bubble {
-        self.air.bubble()
-    }
-
-    /// Bubble volume (eq. 3.10) of the current state, m^3; 0 without a sticking plane.
+    /// Volume of the trapped air, m^3: the bubble's (eq. 3.10; 0 without a sticking plane), or
+    /// with the pockets model the sealed pockets' together.
     pub fn air_volume(&self) -> Real {
-        self.bubble().volume
+        self.air.volume()
     }
 
-    /// Bubble pressure P_b by Boyle's law, Pa. With the air force off the cloth is treated as
-    /// permeable, and the pressure under it is atmospheric.
+    /// Pressure of the trapped air, Pa: the bubble's by Boyle's law, or with the pockets model
+    /// the sealed pockets' volume-weighted mean (atmospheric without any). With the air force
+    /// off the cloth is treated as permeable, and the pressure under it is atmospheric.
     pub fn air_pressure(&self) -> Real {
-        self.bubble()
+        self.air
             .pressure(&self.config.air, &self.model, self.control.air_enabled)
     }
 
     /// Trapped air now, m^3 at atmospheric pressure: the scene's `trapped_air` plus what has
-    /// leaked in since (see `AirParams::leak_conductance`).
+    /// leaked in since (see `AirParams::leak_conductance`), or the sealed pockets' together.
     pub fn trapped_air(&self) -> Real {
-        self.bubble().trapped_air
+        self.air.trapped_air()
+    }
+
+    /// Number of sealed pockets of air (the thesis' single bubble counts as one).
+    pub fn pocket_count(&self) -> usize {
+        self.air.pocket_count()
+    }
+
+    /// The sealed pockets as the outputs report them (`pockets.csv`; the thesis' bubble is
+    /// pocket 0).
+    pub fn pocket_reports(&self) -> Vec<crate::air::PocketReport> {
+        self.air
+            .reports(&self.config.air, &self.model, self.control.air_enabled)
     }
 
     /// The bubble pressure the last step's pressure force used, Pa: Boyle's law at the start of
     /// the step ([`crate::PressureSolve::Explicit`]) or the predicted end-of-step pressure
     /// ([`crate::PressureSolve::Implicit`]); [`Simulation::air_pressure`] is Boyle's law on the
-    /// current state.
+    /// current state. With the pockets model, the pockets' mean pressure.
     pub fn applied_pressure(&self) -> Real {
-        self.bubble().applied_pressure
+        match self.air.bubble() {
+            Some(b) => b.applied_pressure,
+            None => self.air_pressure(),
+        }
     }
 
     /// Length of the cloth's border lifted off every collider during the last step, m (see
@@ -329,9 +355,11 @@ impl Simulation {
 
     /// Forgets the air's history: the previous volume becomes the current one.
     fn settle_air_history(&mut self) {
-        let AirModel::Thesis(b) = &mut self.air;
-        b.prev_volume = b.volume;
-        b.applied_pressure = b.pressure(&self.config.air, &self.model, self.control.air_enabled);
+        if let AirModel::Thesis(b) = &mut self.air {
+            b.prev_volume = b.volume;
+            b.applied_pressure =
+                b.pressure(&self.config.air, &self.model, self.control.air_enabled);
+        }
     }
 
     /// Resets to the state at t = 0 (the demo's button 3), keeping the air switch.
@@ -372,7 +400,7 @@ impl Simulation {
         self.control.begin_step(&self.state.x, t_next, dt);
 
         // 2. Air load.
-        let load = self.air.begin_step(
+        let timing = self.air.begin_step(
             &self.config.air,
             &self.model,
             &self.state,
@@ -385,11 +413,15 @@ impl Simulation {
             .self_collision
             .as_ref()
             .and_then(SelfCollision::reference);
-        let (moved2, solved) = self.integrator.step(
+        let moved2 = self.integrator.step(
             &self.model,
             &mut self.state,
             &mut self.control,
-            load,
+            Air {
+                params: &self.config.air,
+                model: &mut self.air,
+                timing,
+            },
             dt,
             Fused {
                 reference,
@@ -397,10 +429,6 @@ impl Simulation {
                 rows_per_task: exec::row_split(self.model.grid.nx, self.model.grid.nz),
             },
         );
-
-        if let Some(pressure) = solved {
-            self.air.set_applied_pressure(pressure);
-        }
 
         // 4. Leak.
         self.air.leak(
@@ -428,13 +456,12 @@ impl Simulation {
     fn audit_energy(&mut self) -> Result<(), StepError> {
         let time = self.time();
         if self.control.air_enabled {
-            let b = self.air.bubble();
-            checks::check_volume(&self.model, b.volume, time)?;
-            let atmosphere = self.config.air.atmospheric_pressure;
-            let difference = (b.applied_pressure - atmosphere)
-                .abs()
-                .max((self.air_pressure() - atmosphere).abs());
-            self.audit.record_air(b.volume, difference);
+            let volume = self.air.volume();
+            checks::check_volume(&self.model, volume, time)?;
+            let difference =
+                self.air
+                    .largest_pressure_difference(&self.config.air, &self.model, true);
+            self.audit.record_air(volume, difference);
         }
         if self.state.steps.is_multiple_of(checks::AUDIT_INTERVAL) {
             let dt = self.time_step();
@@ -515,7 +542,14 @@ impl Simulation {
     fn finish_measures(&mut self) -> Result<(), StepError> {
         let totals = self.measures.totals();
         checks::check(&totals, self.time())?;
-        self.air.set_volume(totals.volume);
+        self.air.finish_step(
+            &self.config.air,
+            &self.model,
+            &self.state,
+            &self.measures,
+            totals.volume,
+            self.config.simulation.time_step,
+        );
         Ok(())
     }
 

@@ -4,7 +4,7 @@
 
 use super::boyle::boyle_pressure;
 use super::leak;
-use crate::air::AirLoad;
+use crate::air::{AirLoad, Timing};
 use crate::control::Control;
 use crate::math::Real;
 use crate::model::Model;
@@ -25,6 +25,8 @@ pub struct Bubble {
     pub applied_pressure: Real,
     /// Boyle's pressure at the start of the step being taken, Pa (the leak's driving pressure).
     start_pressure: Real,
+    /// The end-of-step pressure the integrator is to solve this step, if any.
+    pending: Option<EndOfStep>,
 }
 
 impl Bubble {
@@ -36,6 +38,7 @@ impl Bubble {
             prev_volume: 0.0,
             applied_pressure: 0.0,
             start_pressure: 0.0,
+            pending: None,
         }
     }
 
@@ -66,7 +69,7 @@ impl Bubble {
         state: &State,
         control: &Control,
         dt: Real,
-    ) -> AirLoad {
+    ) -> Timing {
         self.start_pressure = self.pressure(air, model, control.air_enabled);
         let pa = air.atmospheric_pressure;
         let trapped = pa * self.trapped_air;
@@ -75,27 +78,45 @@ impl Bubble {
             && trapped > 0.0
             && model.sticking.is_some();
         if implicit {
-            AirLoad::EndOfStep(EndOfStep {
+            self.pending = Some(EndOfStep {
                 trapped,
                 atmosphere: pa,
                 area: model.area_per_particle,
                 step_per_force: dt * dt / model.particle_mass
                     * if state.steps == 0 { 0.5 } else { 1.0 },
+                first_step: state.steps == 0,
+                dt,
                 start: self.start_pressure,
-            })
+            });
+            Timing::EndOfStep
         } else {
+            self.pending = None;
             self.applied_pressure = if control.air_enabled {
                 self.start_pressure
             } else {
                 pa
             };
-            AirLoad::Uniform(self.applied_pressure - pa)
+            Timing::Now
         }
     }
 
-    /// Records the pressure the integrator solved for the step, Pa.
-    pub(crate) fn set_applied_pressure(&mut self, pressure: Real) {
-        self.applied_pressure = pressure;
+    /// The load of the step: the applied pressure difference on every particle.
+    pub(crate) fn load(&self, air: &AirParams) -> AirLoad<'_> {
+        AirLoad::Uniform(self.applied_pressure - air.atmospheric_pressure)
+    }
+
+    /// Solves the step's end-of-step pressure from the coasting positions `coast` (m) and the
+    /// gap volume under them `coast_volume` (m^3).
+    pub(crate) fn solve_end_of_step(
+        &mut self,
+        model: &Model,
+        coast: &crate::math::Soa,
+        coast_volume: Real,
+        held: &[bool],
+    ) {
+        if let Some(solve) = self.pending.take() {
+            self.applied_pressure = solve.solve(model, coast, coast_volume, held);
+        }
     }
 
     /// Phase 4: air leaking in (or out) where the border is lifted off the surface during the
@@ -150,8 +171,12 @@ pub(crate) struct EndOfStep {
     pub atmosphere: Real,
     /// Cloth area per particle `S`, m^2.
     pub area: Real,
-    /// `h = dt^2 / m` (halved on the first step), s^2/kg.
+    /// `h = dt^2 / m` (halved on the first step), s^2/kg, for particles of the uniform mass.
     pub step_per_force: Real,
+    /// Whether this is the Taylor first step (h halved).
+    pub first_step: bool,
+    /// The step, s.
+    pub dt: Real,
     /// Boyle's pressure at the start of the step, Pa: the first guess.
     pub start: Real,
 }
@@ -188,51 +213,68 @@ impl EndOfStep {
                 base -= s * g;
             }
         }
-        let per_pascal = h * s * s;
+        // The move per pascal of particle i, m/Pa.
+        let first = if self.first_step { 0.5 } else { 1.0 };
+        let h_of = |i: usize| match &model.masses {
+            None => h,
+            Some(m) => self.dt * self.dt / m[i] * first,
+        };
         // The volume at the end of the step under pressure P (m^3) and its slope dV/dP.
         let volume = |p: Real| {
             let (mut v, mut slope) = (base, 0.0);
-            let push = h * s * (p - pa);
             for i in 0..coast.len() {
                 if held[i] {
                     continue;
                 }
+                let h = h_of(i);
+                let push = h * s * (p - pa);
                 let g = gap(i).max(0.0);
                 if push >= 0.0 || -push < g {
                     v += s * push;
-                    slope += per_pascal;
+                    slope += h * s * s;
                 } else {
                     v -= s * g;
                 }
             }
             (v, slope)
         };
-        // Newton on f(P) = P V(P) - K (increasing in P), kept inside its bracket [lo, hi].
-        let (mut lo, mut hi) = (0.0, Real::INFINITY);
-        let mut p = self.start.max(1e-3 * pa).max(1e-9);
-        for _ in 0..100 {
-            let (v, slope) = volume(p);
-            let f = p * v - k;
-            if f > 0.0 {
-                hi = p;
-            } else {
-                lo = p;
-            }
-            let df = v + p * slope;
-            let mut next = if df > 0.0 { p - f / df } else { Real::NAN };
-            if !(next > lo && next < hi) {
-                next = if hi.is_finite() {
-                    0.5 * (lo + hi)
-                } else {
-                    2.0 * p.max(lo)
-                };
-            }
-            let done = (next - p).abs() <= 1e-13 * p;
-            p = next;
-            if done {
-                break;
-            }
-        }
-        p
+        solve_boyle(k, pa, self.start, volume)
     }
+}
+
+/// The pressure `P` (Pa) with `P V(P) = K` (`K` in J), `volume(P)` giving `V(P)` (m^3) and its
+/// slope `dV/dP` (increasing in `P`), by Newton iterations kept inside their bracket, from the
+/// first guess `start` (Pa); `pa` scales the smallest first guess.
+pub(crate) fn solve_boyle(
+    k: Real,
+    pa: Real,
+    start: Real,
+    volume: impl Fn(Real) -> (Real, Real),
+) -> Real {
+    let (mut lo, mut hi) = (0.0, Real::INFINITY);
+    let mut p = start.max(1e-3 * pa).max(1e-9);
+    for _ in 0..100 {
+        let (v, slope) = volume(p);
+        let f = p * v - k;
+        if f > 0.0 {
+            hi = p;
+        } else {
+            lo = p;
+        }
+        let df = v + p * slope;
+        let mut next = if df > 0.0 { p - f / df } else { Real::NAN };
+        if !(next > lo && next < hi) {
+            next = if hi.is_finite() {
+                0.5 * (lo + hi)
+            } else {
+                2.0 * p.max(lo)
+            };
+        }
+        let done = (next - p).abs() <= 1e-13 * p;
+        p = next;
+        if done {
+            break;
+        }
+    }
+    p
 }

@@ -6,6 +6,7 @@
 //! | `gap.rs` | the volume between cloth and sticking surface, signed prisms | 3.5, eq. 3.10 |
 //! | `bubble.rs` | the thesis' single bubble, with its explicit or implicit pressure | 3.4 |
 //! | `leak.rs` | air through a lifted border | ch. 5 (future work) |
+//! | `pockets.rs` | several sealed pockets that form, merge, split, leak and open | ch. 5 (future work) |
 //!
 //! An air model answers two questions each step: what pressure acts on the cloth during the
 //! step (`AirModel::begin_step`, phase 2 of [`crate::Simulation::step`]), and what the air
@@ -16,25 +17,54 @@ pub mod boyle;
 pub mod bubble;
 pub mod gap;
 pub mod leak;
+pub mod pockets;
 
 pub use boyle::{MIN_GAP, boyle_pressure};
 pub use bubble::Bubble;
 pub use gap::{StickingPlane, prism_volume, row_volume, volume};
+pub use pockets::{Pocket, Pockets};
 
 use crate::control::Control;
-use crate::math::Real;
+use crate::math::{Real, Soa};
+use crate::measure::Measures;
 use crate::model::Model;
-use crate::params::AirParams;
+use crate::params::{AirModelKind, AirParams};
 use crate::state::State;
+
+/// When a step's pressure is known.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Timing {
+    /// At its start (explicit, or no air to solve for).
+    Now,
+    /// At its end: the integrator moves the particles by every other force first, then asks
+    /// the air model for the pressure ([`AirModel::solve_end_of_step`]).
+    EndOfStep,
+}
 
 /// The pressure the air puts on the cloth during one step.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum AirLoad {
-    /// Every particle feels the pressure difference `P_b - P_a`, this many Pa (0: no force).
+pub(crate) enum AirLoad<'a> {
+    /// Every particle feels the pressure difference `P - P_a`, this many Pa (0: no force).
     Uniform(Real),
-    /// Every particle feels `(P_b - P_a) S N` with the pressure `P_b` of the state at the end
-    /// of the step, which the integrator solves from its coasting positions.
-    EndOfStep(bubble::EndOfStep),
+    /// Each particle feels its own pressure difference, Pa.
+    PerParticle(&'a [Real]),
+}
+
+/// One sealed pocket as the outputs report it (`pockets.csv`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PocketReport {
+    /// Id, kept while the pocket persists (the thesis' bubble is pocket 0).
+    pub id: u32,
+    /// Volume, m^3.
+    pub volume: Real,
+    /// Air, m^3 at atmospheric pressure.
+    pub amount: Real,
+    /// Pressure, Pa.
+    pub pressure: Real,
+    /// Cloth area over it, m^2.
+    pub area: Real,
+    /// Particles in it.
+    pub particles: u32,
 }
 
 /// The air model of a simulation.
@@ -42,22 +72,129 @@ pub(crate) enum AirLoad {
 pub enum AirModel {
     /// The thesis' single bubble (3.4).
     Thesis(Bubble),
+    /// Sealed pockets ([`pockets`]).
+    Pockets(Pockets),
 }
 
 impl AirModel {
-    /// The model the parameters ask for.
-    pub fn new(air: &AirParams) -> Self {
-        AirModel::Thesis(Bubble::new(air.trapped_air))
-    }
-
-    /// The thesis bubble.
-    pub fn bubble(&self) -> &Bubble {
-        match self {
-            AirModel::Thesis(b) => b,
+    /// The model the parameters ask for, for the cloth of `model` in `state` (measured in
+    /// `measures`, with cell volumes for the pockets model).
+    pub(crate) fn new(air: &AirParams, model: &Model, state: &State, measures: &Measures) -> Self {
+        match air.model {
+            AirModelKind::Thesis => AirModel::Thesis(Bubble::new(air.trapped_air)),
+            AirModelKind::Pockets => AirModel::Pockets(Pockets::new(air, model, state, measures)),
         }
     }
 
-    /// Phase 2 of the step: the load on the cloth during the step.
+    /// Whether the model needs each cell's gap volume measured.
+    pub fn keeps_cells(air: &AirParams) -> bool {
+        air.model == AirModelKind::Pockets
+    }
+
+    /// The thesis bubble, if this is the thesis model.
+    pub fn bubble(&self) -> Option<&Bubble> {
+        match self {
+            AirModel::Thesis(b) => Some(b),
+            AirModel::Pockets(_) => None,
+        }
+    }
+
+    /// The pockets, if this is the pockets model.
+    pub fn pockets(&self) -> Option<&Pockets> {
+        match self {
+            AirModel::Thesis(_) => None,
+            AirModel::Pockets(p) => Some(p),
+        }
+    }
+
+    /// Volume of the trapped air, m^3: the bubble's, or the sealed pockets' together.
+    pub fn volume(&self) -> Real {
+        match self {
+            AirModel::Thesis(b) => b.volume,
+            AirModel::Pockets(p) => p.volume(),
+        }
+    }
+
+    /// Pressure of the trapped air, Pa: the bubble's by Boyle's law (atmospheric with the air
+    /// force off), or the sealed pockets' volume-weighted mean (atmospheric without any).
+    pub fn pressure(&self, air: &AirParams, model: &Model, enabled: bool) -> Real {
+        match self {
+            AirModel::Thesis(b) => b.pressure(air, model, enabled),
+            AirModel::Pockets(p) if enabled => p.mean_pressure(air.atmospheric_pressure),
+            AirModel::Pockets(_) => air.atmospheric_pressure,
+        }
+    }
+
+    /// Air trapped, m^3 at atmospheric pressure.
+    pub fn trapped_air(&self) -> Real {
+        match self {
+            AirModel::Thesis(b) => b.trapped_air,
+            AirModel::Pockets(p) => p.amount(),
+        }
+    }
+
+    /// Number of sealed pockets (the thesis' bubble counts as one).
+    pub fn pocket_count(&self) -> usize {
+        match self {
+            AirModel::Thesis(_) => 1,
+            AirModel::Pockets(p) => p.pockets.len(),
+        }
+    }
+
+    /// The sealed pockets as the outputs report them.
+    pub fn reports(&self, air: &AirParams, model: &Model, enabled: bool) -> Vec<PocketReport> {
+        match self {
+            AirModel::Thesis(b) => vec![PocketReport {
+                id: 0,
+                volume: b.volume,
+                amount: b.trapped_air,
+                pressure: b.pressure(air, model, enabled),
+                area: model.cloth_area,
+                particles: model.grid.len() as u32,
+            }],
+            AirModel::Pockets(p) => p
+                .pockets
+                .iter()
+                .map(|q| PocketReport {
+                    id: q.id,
+                    volume: q.volume,
+                    amount: q.amount,
+                    pressure: if enabled {
+                        q.pressure
+                    } else {
+                        air.atmospheric_pressure
+                    },
+                    area: q.area,
+                    particles: q.particles,
+                })
+                .collect(),
+        }
+    }
+
+    /// The largest pressure difference across the cloth, Pa (for the energy audit).
+    pub(crate) fn largest_pressure_difference(
+        &self,
+        air: &AirParams,
+        model: &Model,
+        enabled: bool,
+    ) -> Real {
+        if !enabled {
+            return 0.0;
+        }
+        let pa = air.atmospheric_pressure;
+        match self {
+            AirModel::Thesis(b) => (b.applied_pressure - pa)
+                .abs()
+                .max((b.pressure(air, model, enabled) - pa).abs()),
+            AirModel::Pockets(p) => p
+                .pockets
+                .iter()
+                .map(|q| (q.pressure - pa).abs())
+                .fold(0.0, Real::max),
+        }
+    }
+
+    /// Phase 2 of the step: when the step's pressure is known.
     pub(crate) fn begin_step(
         &mut self,
         air: &AirParams,
@@ -65,20 +202,41 @@ impl AirModel {
         state: &State,
         control: &Control,
         dt: Real,
-    ) -> AirLoad {
+    ) -> Timing {
         match self {
             AirModel::Thesis(b) => b.begin_step(air, model, state, control, dt),
+            AirModel::Pockets(p) => p.begin_step(air, model, state, control, dt),
         }
     }
 
-    /// Records the pressure the integrator solved for an [`AirLoad::EndOfStep`], Pa.
-    pub(crate) fn set_applied_pressure(&mut self, pressure: Real) {
+    /// The load on the cloth during the step (once known).
+    pub(crate) fn load(&self, air: &AirParams) -> AirLoad<'_> {
         match self {
-            AirModel::Thesis(b) => b.set_applied_pressure(pressure),
+            AirModel::Thesis(b) => b.load(air),
+            AirModel::Pockets(p) => p.load(),
         }
     }
 
-    /// Phase 4: air through the border during the step (`contact` flags of the step).
+    /// For [`Timing::EndOfStep`]: solves the step's pressure from the coasting positions
+    /// `coast` (m), measured in `coast_measures`; `held` marks the hands' particles.
+    pub(crate) fn solve_end_of_step(
+        &mut self,
+        air: &AirParams,
+        model: &Model,
+        coast: &Soa,
+        coast_measures: &Measures,
+        held: &[bool],
+    ) {
+        match self {
+            AirModel::Thesis(b) => {
+                b.solve_end_of_step(model, coast, coast_measures.totals().volume, held)
+            }
+            AirModel::Pockets(p) => p.solve_end_of_step(air, model, coast, coast_measures, held),
+        }
+    }
+
+    /// Phase 4: air through the border during the step (`contact` flags of the step; the
+    /// thesis' bubble).
     pub(crate) fn leak(
         &mut self,
         air: &AirParams,
@@ -87,15 +245,25 @@ impl AirModel {
         enabled: bool,
         dt: Real,
     ) {
-        match self {
-            AirModel::Thesis(b) => b.leak(air, model, contact, enabled, dt),
+        if let AirModel::Thesis(b) = self {
+            b.leak(air, model, contact, enabled, dt)
         }
     }
 
-    /// Phase 7: the gap volume of the new state, m^3.
-    pub(crate) fn set_volume(&mut self, volume: Real) {
+    /// Phase 6: the air of the new state, measured in `measures` (total gap volume `volume`,
+    /// m^3).
+    pub(crate) fn finish_step(
+        &mut self,
+        air: &AirParams,
+        model: &Model,
+        state: &State,
+        measures: &Measures,
+        volume: Real,
+        dt: Real,
+    ) {
         match self {
             AirModel::Thesis(b) => b.set_volume(volume),
+            AirModel::Pockets(p) => p.finish_step(air, model, state, measures, dt),
         }
     }
 }

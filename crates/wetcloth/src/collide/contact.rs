@@ -17,7 +17,20 @@ use crate::math::{Real, Vec3};
 /// applies Coulomb friction to its motion since `x_old`. Returns the corrected position and
 /// whether it touched anything.
 #[inline]
-pub fn resolve(colliders: &[Collider], x_old: Vec3, mut x: Vec3, radius: Real) -> (Vec3, bool) {
+pub fn resolve(colliders: &[Collider], x_old: Vec3, x: Vec3, radius: Real) -> (Vec3, bool) {
+    resolve_scaled(colliders, x_old, x, radius, 1.0)
+}
+
+/// [`resolve`] for a particle whose friction is `friction_scale` times the colliders' (a
+/// particle drier than the cloth the friction coefficients describe).
+#[inline]
+pub fn resolve_scaled(
+    colliders: &[Collider],
+    x_old: Vec3,
+    mut x: Vec3,
+    radius: Real,
+    friction_scale: Real,
+) -> (Vec3, bool) {
     let mut touched = false;
     for c in colliders {
         let (d, n) = c.distance(x);
@@ -30,7 +43,7 @@ pub fn resolve(colliders: &[Collider], x_old: Vec3, mut x: Vec3, radius: Real) -
         let step = x - x_old;
         let tangential = step - n * step.dot(n);
         let slide = tangential.length();
-        let grip = c.friction * depth;
+        let grip = c.friction * friction_scale * depth;
         x -= if slide <= grip {
             tangential
         } else {

@@ -72,7 +72,7 @@ impl From<Plane> for PlaneRepr {
     }
 }
 
-/// A plane prepared for the vectorised contact row ([`contact_row`]).
+/// A plane prepared for the vectorised contact row (`contact_row`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct PlaneContact {
     pub normal: Vec3,
@@ -96,6 +96,7 @@ impl PlaneContact {
 /// [`super::contact::resolve`] (projection by the depth, then friction removing at most
 /// `mu depth` of the tangential step since `here`), computed for every particle with the depth
 /// clamped to 0 for those that do not touch. Sets `contact[i]` for those that touch.
+#[cfg(test)]
 #[inline(always)]
 pub(crate) fn contact_row(
     p: &PlaneContact,
@@ -103,6 +104,29 @@ pub(crate) fn contact_row(
     next: &mut RowMut<'_>,
     contact: &mut [bool],
 ) {
+    contact_row_scaled(p, here, next, contact, None);
+}
+
+/// `contact_row` with each particle's friction scaled by `friction_scale[i]` if given.
+#[inline(always)]
+pub(crate) fn contact_row_scaled(
+    p: &PlaneContact,
+    here: RowRef<'_>,
+    next: &mut RowMut<'_>,
+    contact: &mut [bool],
+    friction_scale: Option<&[Real]>,
+) {
+    if let Some(scale) = friction_scale {
+        let n = here.x.len();
+        for i in 0..n {
+            let now = here.get(i);
+            let to = Vec3::new(next.x[i], next.y[i], next.z[i]);
+            let (to, hit) = plane_contact(p, now, to, scale[i]);
+            (next.x[i], next.y[i], next.z[i]) = (to.x, to.y, to.z);
+            contact[i] |= hit;
+        }
+        return;
+    }
     let n = here.x.len();
     let (nx, ny, nz) = (p.normal.x, p.normal.y, p.normal.z);
     let (qx, qy, qz) = (&mut next.x[..n], &mut next.y[..n], &mut next.z[..n]);
@@ -124,6 +148,28 @@ pub(crate) fn contact_row(
         (qx[i], qy[i], qz[i]) = (x, y, z);
         contact[i] |= depth > 0.0;
     }
+}
+
+/// One particle's contact with a plane moving from `here` to `next`, friction scaled by
+/// `scale`: the scalar form of `contact_row`.
+#[inline]
+fn plane_contact(p: &PlaneContact, here: Vec3, mut next: Vec3, scale: Real) -> (Vec3, bool) {
+    let dist = p.normal.dot(next) - p.offset;
+    if dist >= 0.0 {
+        return (next, false);
+    }
+    let depth = -dist;
+    next += p.normal * depth;
+    let step = next - here;
+    let tangential = step - p.normal * step.dot(p.normal);
+    let slide = tangential.length();
+    let grip = p.friction * scale * depth;
+    next -= if slide > grip {
+        tangential * (grip / slide)
+    } else {
+        tangential
+    };
+    (next, true)
 }
 
 #[cfg(test)]

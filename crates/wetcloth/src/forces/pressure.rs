@@ -63,7 +63,33 @@ pub(crate) fn add_row(
     }
 }
 
-/// Adds `pressure * A_i` (N) to every particle of row `here`, `pressure` = `P_b - P_a` (Pa)
+/// [`add_row`] with each particle's own pressure: adds `pressures[i] * factor * N` (N) to
+/// particle `i` (`pressures` in Pa, `factor` the area per particle S times any scale, m^2).
+pub(crate) fn add_row_each(
+    force: &mut RowMut<'_>,
+    here: RowRef<'_>,
+    below: RowRef<'_>,
+    above: RowRef<'_>,
+    pressures: &[Real],
+    factor: Real,
+) {
+    let nx = here.x.len();
+    for i in 0..nx {
+        let l = i.saturating_sub(1);
+        let r = (i + 1).min(nx - 1);
+        let tx = here.get(r) - here.get(l);
+        let tz = above.get(i) - below.get(i);
+        let n = tz.cross(tx);
+        let len = n.length().max(1e-300);
+        let f = n * (pressures[i] * factor / len);
+        force.x[i] += f.x;
+        force.y[i] += f.y;
+        force.z[i] += f.z;
+    }
+}
+
+/// Adds `pressure(i) * A_i` (N) to every particle `i` of row `here`, `pressure(i)` = `P - P_a`
+/// (Pa)
 /// and `A_i` the particle's share of the cloth's area vector ([`crate::PressureForce::Area`]):
 /// a sixth of `(b - v) x (c - v)` over the (up to six) triangles of `crate::Grid::triangles`
 /// around it, `v` the particle. `below` and `above` are the neighbouring rows, `None` at the
@@ -73,11 +99,11 @@ pub(crate) fn add_row_area(
     here: RowRef<'_>,
     below: Option<RowRef<'_>>,
     above: Option<RowRef<'_>>,
-    pressure: Real,
+    pressure: impl Fn(usize) -> Real,
 ) {
     let nx = here.x.len();
-    let scale = pressure / 6.0;
     for i in 0..nx {
+        let scale = pressure(i) / 6.0;
         let v = here.get(i);
         let (west, east) = (i > 0, i + 1 < nx);
         let mut sum = Vec3::ZERO;
@@ -173,7 +199,7 @@ mod tests {
                 };
                 let below = (j > 0).then(|| row(p, nx, j - 1));
                 let above = (j + 1 < grid.nz).then(|| row(p, nx, j + 1));
-                add_row_area(&mut f, row(p, nx, j), below, above, 1.0);
+                add_row_area(&mut f, row(p, nx, j), below, above, |_| 1.0);
                 out.extend((0..nx).map(|i| Vec3::new(fx[i], fy[i], fz[i])));
             }
             out

@@ -16,13 +16,24 @@
 
 pub(crate) mod verlet;
 
-use crate::air::AirLoad;
+use crate::air::{AirModel, Timing};
 use crate::control::Control;
 use crate::math::{Real, Soa};
 use crate::measure::Measures;
 use crate::model::Model;
-use crate::params::Integrator;
+use crate::params::{AirParams, Integrator};
 use crate::state::State;
+
+/// The air as the integrator sees it during one step.
+pub(crate) struct Air<'a> {
+    /// The `[air]` parameters.
+    pub params: &'a AirParams,
+    /// The air model, which gives the load and, for [`Timing::EndOfStep`], solves it from the
+    /// integrator's coasting positions.
+    pub model: &'a mut AirModel,
+    /// When the step's pressure is known.
+    pub timing: Timing,
+}
 
 /// What the step asks an integrator to measure while it has the new positions at hand.
 pub(crate) struct Fused<'a> {
@@ -47,24 +58,21 @@ impl IntegratorState {
     /// The integrator `kind` for `model`.
     pub fn new(kind: Integrator, model: &Model) -> Self {
         match kind {
-            Integrator::Verlet => {
-                IntegratorState::Verlet(verlet::Verlet::new(model.grid.len(), model.grid.nx))
-            }
+            Integrator::Verlet => IntegratorState::Verlet(verlet::Verlet::new(&model.grid)),
         }
     }
 
     /// One step of `dt` s (see the module docs). Returns the largest squared distance (m^2) of
-    /// a new position from `fused.reference`, and for an [`AirLoad::EndOfStep`] the pressure
-    /// it solved (Pa).
+    /// a new position from `fused.reference`.
     pub fn step(
         &mut self,
         model: &Model,
         state: &mut State,
         control: &mut Control,
-        air: AirLoad,
+        air: Air<'_>,
         dt: Real,
         fused: Fused<'_>,
-    ) -> (Real, Option<Real>) {
+    ) -> Real {
         match self {
             IntegratorState::Verlet(v) => v.step(model, state, control, air, dt, fused),
         }

@@ -11,9 +11,10 @@
 //! Every particle's result is a fixed sequence of operations on its neighbours' positions, so
 //! the output is bit-identical however the rows are split between threads.
 
+use super::Air;
 use super::Fused;
-use crate::air::AirLoad;
 use crate::air::gap::StickingPlane;
+use crate::air::{AirLoad, Timing};
 use crate::checks;
 use crate::collide::Collider;
 use crate::collide::contact;
@@ -43,11 +44,13 @@ pub(crate) struct Verlet {
     moved: Vec<Real>,
 }
 
-/// The springs of the current and the previous row.
+/// The springs of the current and the previous row, and a row of scratch.
 #[derive(Clone, Debug, Default)]
 struct RowPair {
     current: RowSprings,
     previous: RowSprings,
+    /// A row's pressure force, N, when particles differ in mass.
+    pressure: [Vec<Real>; 3],
 }
 
 impl RowPair {
@@ -55,6 +58,7 @@ impl RowPair {
         Self {
             current: RowSprings::new(nx),
             previous: RowSprings::new(nx),
+            pressure: [vec![0.0; nx], vec![0.0; nx], vec![0.0; nx]],
         }
     }
 
@@ -78,10 +82,26 @@ struct StepConsts<'a> {
     /// `damping * m / dt`, kg/s^2: the damping force is `-damp * (x - x_prev)`.
     damp: Real,
     springs: SpringConsts,
-    /// `P_b - P_a`, Pa, during the step.
+    /// `P_b - P_a`, Pa, during the step, when every particle feels the same.
     pressure: Real,
     /// `(P_b - P_a) S`, N: the thesis' pressure force is this times the unit normal.
     pressure_area: Real,
+    /// Each particle's pressure difference, Pa, when they differ (pockets).
+    pressures: Option<&'a [Real]>,
+    /// Cloth area per particle S, m^2.
+    area: Real,
+    /// Each particle's mass, kg, when they differ (painted wetness with water).
+    masses: Option<&'a [Real]>,
+    /// `dt^2` (halved on the first step), s^2: with `masses`, a force of 1 N moves particle
+    /// `i` by `dt2 / m_i` over the step.
+    dt2: Real,
+    /// Damping rate over the step, `damping / dt`, 1/s^2: with `masses`, particle `i`'s damping
+    /// force is `-m_i damping_per_dt (x - x_prev)`.
+    damping_per_dt: Real,
+    /// Each particle's share of the colliders' friction, when not 1 everywhere.
+    friction_scale: Option<&'a [Real]>,
+    /// Whether to keep each cell's gap volume in the measures.
+    keep_cells: bool,
     /// How the pressure becomes forces.
     pressure_law: PressureForce,
     radius: Real,
@@ -95,13 +115,14 @@ struct StepConsts<'a> {
 }
 
 impl Verlet {
-    /// Scratch for `n` particles in rows of `nx`.
-    pub fn new(n: usize, nx: usize) -> Self {
+    /// Scratch for the particles of `grid`.
+    pub fn new(grid: &crate::model::Grid) -> Self {
+        let (n, nx) = (grid.len(), grid.nx);
         Self {
             force: Soa::zeros(n),
             springs: RowPair::new(nx),
             saved_prev: Vec::new(),
-            coast: measure::Measures::new(n / nx),
+            coast: measure::Measures::for_grid(grid, false),
             moved: vec![0.0; n / nx],
         }
     }
@@ -111,23 +132,23 @@ impl Verlet {
         self.force.heap_bytes()
             + self.springs.current.heap_bytes()
             + self.springs.previous.heap_bytes()
+            + 3 * self.springs.pressure[0].capacity() * std::mem::size_of::<Real>()
             + self.saved_prev.capacity() * std::mem::size_of::<Vec3>()
             + self.coast.heap_bytes()
             + self.moved.capacity() * std::mem::size_of::<Real>()
     }
 
     /// One step of `dt` s: forces, position Verlet, contacts, the hand. Returns the largest
-    /// squared distance (m^2) of a new position from `fused.reference` (0 without one) and,
-    /// for an [`AirLoad::EndOfStep`], the bubble pressure it solved (Pa).
+    /// squared distance (m^2) of a new position from `fused.reference` (0 without one).
     pub fn step(
         &mut self,
         model: &Model,
         state: &mut State,
         control: &mut Control,
-        load: AirLoad,
+        air: Air<'_>,
         dt: Real,
         fused: Fused<'_>,
-    ) -> (Real, Option<Real>) {
+    ) -> Real {
         state.use_previous_positions(dt);
         let grid = &model.grid;
         let mass = model.particle_mass;
@@ -137,6 +158,7 @@ impl Verlet {
         self.saved_prev.clear();
         self.saved_prev
             .extend(control.grabs.iter().map(|g| prev.get(g.particle)));
+        let first = if state.steps == 0 { 0.5 } else { 1.0 };
         let mut consts = StepConsts {
             grid,
             planes: &model.planes,
@@ -147,9 +169,16 @@ impl Verlet {
             springs: model.springs,
             pressure: 0.0,
             pressure_area: 0.0,
+            pressures: None,
+            area: model.area_per_particle,
+            masses: model.masses.as_deref(),
+            dt2: dt * dt * first,
+            damping_per_dt: model.damping / dt,
+            friction_scale: model.friction_scale.as_deref(),
+            keep_cells: fused.measures.keep_cells,
             pressure_law: model.pressure_force,
             radius: model.radius,
-            step_per_force: dt * dt / mass * if state.steps == 0 { 0.5 } else { 1.0 },
+            step_per_force: dt * dt / mass * first,
             reference: fused.reference,
             sticking: model.sticking,
         };
@@ -163,18 +192,38 @@ impl Verlet {
             force: &mut self.force,
             contact: &mut state.contact,
             measures: &mut fused.measures.rows,
+            cells: &mut fused.measures.cells,
             springs: &mut self.springs,
         };
         let prev: &mut Soa = prev;
-        let solved = match load {
-            AirLoad::Uniform(pressure) => {
-                // Forces, Verlet and contacts in one pass over the rows.
-                consts.pressure = pressure;
-                consts.pressure_area = pressure * model.area_per_particle;
-                blocks.run(prev, |b, springs| step_rows(&consts, x, b, springs));
-                None
+        fn set_load<'a>(consts: &mut StepConsts<'a>, load: AirLoad<'a>, area: Real) {
+            match load {
+                AirLoad::Uniform(pressure) => {
+                    consts.pressure = pressure;
+                    consts.pressure_area = pressure * area;
+                }
+                AirLoad::PerParticle(p) => {
+                    // Any non-zero value marks that the pressure acts; each particle's is in `p`.
+                    consts.pressure = if p.iter().any(|&d| d != 0.0) {
+                        1.0
+                    } else {
+                        0.0
+                    };
+                    consts.pressures = Some(p);
+                }
             }
-            AirLoad::EndOfStep(solve) => {
+        }
+        match air.timing {
+            Timing::Now => {
+                // Forces, Verlet and contacts in one pass over the rows.
+                set_load(
+                    &mut consts,
+                    air.model.load(air.params),
+                    model.area_per_particle,
+                );
+                blocks.run(prev, |b, springs| step_rows(&consts, x, b, springs));
+            }
+            Timing::EndOfStep => {
                 // Everything but the pressure first, to the coasting positions; the hands
                 // carry their particles; then the pressure of the end of the step, and the
                 // pressure's move and the contacts in a second pass.
@@ -182,16 +231,19 @@ impl Verlet {
                 for (k, target) in control.active() {
                     prev.set(k, target);
                 }
+                self.coast.keep_cells = consts.keep_cells;
                 self.coast
                     .remeasure_all(grid, prev, model.sticking, model.radius, rows);
-                let volume = self.coast.totals().volume;
-                let pressure = solve.solve(model, prev, volume, &control.held);
-                consts.pressure = pressure - solve.atmosphere;
-                consts.pressure_area = consts.pressure * model.area_per_particle;
-                blocks.run(prev, |b, _| finish_rows(&consts, x, b));
-                Some(pressure)
+                air.model
+                    .solve_end_of_step(air.params, model, prev, &self.coast, &control.held);
+                set_load(
+                    &mut consts,
+                    air.model.load(air.params),
+                    model.area_per_particle,
+                );
+                blocks.run(prev, |b, scratch| finish_rows(&consts, x, b, scratch));
             }
-        };
+        }
         let p = prev;
         std::mem::swap(&mut state.x, p);
         let remeasure = |measures: &mut measure::Measures, x: &Soa, j: usize| {
@@ -207,6 +259,10 @@ impl Verlet {
         // The hand (thesis 3.2 step 3): cancel the particle's own motion, carry it to its
         // target, and record the force that does so: m (target - 2 x + x_prev) / dt^2 - F.
         let m_dt2 = mass / (dt * dt);
+        let m_dt2_of = |k: usize| match &model.masses {
+            None => m_dt2,
+            Some(m) => m[k] / (dt * dt),
+        };
         let mut work = 0.0;
         for (g, (target, before)) in control
             .grabs
@@ -216,7 +272,7 @@ impl Verlet {
             let k = g.particle;
             match target {
                 Some(target) => {
-                    let accel = (*target - 2.0 * p.get(k) + *before) * m_dt2;
+                    let accel = (*target - 2.0 * p.get(k) + *before) * m_dt2_of(k);
                     g.force = accel - self.force.get(k);
                     work += checks::work(g.force, p.get(k), *target).abs();
                     state.x.set(k, *target);
@@ -234,7 +290,7 @@ impl Verlet {
         // How far the particles moved from the self-collision lists' reference: the rows'
         // maxima, with a hand's particle left out of its row (its position in the pass was
         // free flight, which the hand overrode; the step measures the hand's own moves).
-        let moved2 = match fused.reference {
+        match fused.reference {
             Some(reference) => {
                 for (k, _) in control.active() {
                     let j = k / nx;
@@ -248,8 +304,7 @@ impl Verlet {
                 self.moved.iter().copied().fold(0.0, Real::max)
             }
             None => 0.0,
-        };
-        (moved2, solved)
+        }
     }
 }
 
@@ -263,6 +318,8 @@ struct Blocks<'a> {
     force: &'a mut Soa,
     contact: &'a mut [bool],
     measures: &'a mut [CellMeasures],
+    /// Each cell's gap volume, `nx - 1` per row (written only when kept).
+    cells: &'a mut [Real],
     /// Spring rows of the calling thread (pool threads keep their own).
     springs: &'a mut RowPair,
 }
@@ -289,33 +346,37 @@ impl Blocks<'_> {
                 self.contact.par_chunks_mut(block),
                 self.measures.par_chunks_mut(rows),
                 self.moved.par_chunks_mut(rows),
+                self.cells.par_chunks_mut((nx - 1) * rows),
             )
                 .into_par_iter()
                 .enumerate()
-                .for_each(|(b, (px, py, pz, fx, fy, fz, contact, measures, moved))| {
-                    THREAD_SPRINGS.with_borrow_mut(|springs| {
-                        if !springs.fits(nx) {
-                            *springs = RowPair::new(nx);
-                        }
-                        let block = Block {
-                            j0: b * rows,
-                            prev: &mut RowMut {
-                                x: px,
-                                y: py,
-                                z: pz,
-                            },
-                            force: &mut RowMut {
-                                x: fx,
-                                y: fy,
-                                z: fz,
-                            },
-                            contact,
-                            measures,
-                            moved,
-                        };
-                        pass(block, springs)
-                    })
-                });
+                .for_each(
+                    |(b, (px, py, pz, fx, fy, fz, contact, measures, moved, cells))| {
+                        THREAD_SPRINGS.with_borrow_mut(|springs| {
+                            if !springs.fits(nx) {
+                                *springs = RowPair::new(nx);
+                            }
+                            let block = Block {
+                                j0: b * rows,
+                                prev: &mut RowMut {
+                                    x: px,
+                                    y: py,
+                                    z: pz,
+                                },
+                                force: &mut RowMut {
+                                    x: fx,
+                                    y: fy,
+                                    z: fz,
+                                },
+                                contact,
+                                measures,
+                                moved,
+                                cells,
+                            };
+                            pass(block, springs)
+                        })
+                    },
+                );
         } else {
             let block = Block {
                 j0: 0,
@@ -332,6 +393,7 @@ impl Blocks<'_> {
                 contact: self.contact,
                 measures: self.measures,
                 moved: self.moved,
+                cells: self.cells,
             };
             pass(block, self.springs)
         }
@@ -347,6 +409,7 @@ struct Block<'a, 'b> {
     contact: &'a mut [bool],
     measures: &'a mut [CellMeasures],
     moved: &'a mut [Real],
+    cells: &'a mut [Real],
 }
 
 /// Forces, position Verlet and contacts for the block of rows `b` (as many rows as `b.prev`
@@ -380,9 +443,9 @@ fn coast_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPa
         springs.current.compute(&c.springs, x, j, true);
         let (nx, nz) = (c.grid.nx, c.grid.nz);
         let here = row(x, nx, j);
-        gravity::set_row(f, here, p.as_ref(), c.gravity * c.mass, c.damp);
+        set_weight_and_damping(c, j, here, p.as_ref(), f);
         spring::add_row(f, &springs.current, &springs.previous, j, nx, nz);
-        verlet_row(here, p, f.as_ref(), c.step_per_force);
+        verlet_move(c, j, here, p, f.as_ref());
         std::mem::swap(&mut springs.current, &mut springs.previous);
     });
 }
@@ -390,14 +453,43 @@ fn coast_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, springs: &mut RowPa
 /// The second pass of a step with an end-of-step pressure: the pressure force (added to
 /// `b.force`) and its move from the coasting positions in `b.prev`, then the contacts, for the
 /// block of rows `b`; measures like [`step_rows`].
-fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>) {
+fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, scratch: &mut RowPair) {
     walk_rows(c, b, true, |j, next, f, contact| {
         let here = row(x, c.grid.nx, j);
         // The pressure force, into the forces (for the hand's force) and, times h, into the
         // move.
-        add_pressure(c, j, x, f, 1.0);
-        add_pressure(c, j, x, next, c.step_per_force);
-        contact_row(c, here, next, contact);
+        match c.masses {
+            None => {
+                add_pressure(c, j, x, f, 1.0);
+                add_pressure(c, j, x, next, c.step_per_force);
+            }
+            Some(m) => {
+                // The pressure force alone in the row scratch, then into the forces and, times
+                // each particle's own dt^2 / m, into the move.
+                let nx = c.grid.nx;
+                let [tx, ty, tz] = &mut scratch.pressure;
+                for v in [&mut *tx, &mut *ty, &mut *tz] {
+                    v[..nx].fill(0.0);
+                }
+                let mut t = RowMut {
+                    x: &mut tx[..nx],
+                    y: &mut ty[..nx],
+                    z: &mut tz[..nx],
+                };
+                add_pressure(c, j, x, &mut t, 1.0);
+                let m = &m[j * nx..(j + 1) * nx];
+                for i in 0..nx {
+                    let h = c.dt2 / m[i];
+                    f.x[i] += t.x[i];
+                    f.y[i] += t.y[i];
+                    f.z[i] += t.z[i];
+                    next.x[i] += t.x[i] * h;
+                    next.y[i] += t.y[i] * h;
+                    next.z[i] += t.z[i] * h;
+                }
+            }
+        }
+        contact_row(c, j, here, next, contact);
     })
 }
 
@@ -442,17 +534,20 @@ fn walk_rows(
             z: &prev.z[k * nx..(k + 1) * nx],
         };
         let k = j - j0;
+        let m = nx - 1;
         if k > 0 {
+            let cells = c.keep_cells.then(|| &mut b.cells[(k - 1) * m..k * m]);
             b.measures[k - 1] = measure::cells(
                 c.grid,
                 new_row(k - 1),
                 Some(new_row(k)),
                 c.sticking,
                 c.radius,
+                cells,
             );
         }
         if j + 1 == c.grid.nz {
-            b.measures[k] = measure::cells(c.grid, new_row(k), None, c.sticking, c.radius);
+            b.measures[k] = measure::cells(c.grid, new_row(k), None, c.sticking, c.radius, None);
         }
     }
 }
@@ -503,14 +598,63 @@ fn step_row(
     let here = row(x, nx, j);
 
     // Gravity (eq. 3.3) and velocity damping, then the springs (eq. 3.6).
-    gravity::set_row(force, here, prev.as_ref(), c.gravity * c.mass, c.damp);
+    set_weight_and_damping(c, j, here, prev.as_ref(), force);
     spring::add_row(force, &springs.current, &springs.previous, j, nx, nz);
 
     // Pressure force (eq. 3.7): (P_b - P_a) S N.
     add_pressure(c, j, x, force, 1.0);
 
-    verlet_row(here, prev, force.as_ref(), c.step_per_force);
-    contact_row(c, here, prev, contact);
+    verlet_move(c, j, here, prev, force.as_ref());
+    contact_row(c, j, here, prev, contact);
+}
+
+/// Starts row `j`'s forces with gravity and damping: [`gravity::set_row`] for the uniform
+/// mass, particle by particle with [`StepConsts::masses`].
+#[inline(always)]
+fn set_weight_and_damping(
+    c: &StepConsts<'_>,
+    j: usize,
+    here: RowRef<'_>,
+    prev: RowRef<'_>,
+    force: &mut RowMut<'_>,
+) {
+    match c.masses {
+        None => gravity::set_row(force, here, prev, c.gravity * c.mass, c.damp),
+        Some(m) => {
+            let nx = here.x.len();
+            let m = &m[j * nx..(j + 1) * nx];
+            for i in 0..nx {
+                let v = here.get(i) - prev.get(i);
+                let f = gravity::weight_and_damping(m[i], c.gravity, c.damping_per_dt, v);
+                (force.x[i], force.y[i], force.z[i]) = (f.x, f.y, f.z);
+            }
+        }
+    }
+}
+
+/// Position Verlet for row `j` ([`verlet_row`]), with each particle's own `dt^2 / m_i` when
+/// masses differ.
+#[inline(always)]
+fn verlet_move(
+    c: &StepConsts<'_>,
+    j: usize,
+    here: RowRef<'_>,
+    prev: &mut RowMut<'_>,
+    force: RowRef<'_>,
+) {
+    match c.masses {
+        None => verlet_row(here, prev, force, c.step_per_force),
+        Some(m) => {
+            let nx = here.x.len();
+            let m = &m[j * nx..(j + 1) * nx];
+            for i in 0..nx {
+                let h = c.dt2 / m[i];
+                prev.x[i] = here.x[i] + (here.x[i] - prev.x[i]) + force.x[i] * h;
+                prev.y[i] = here.y[i] + (here.y[i] - prev.y[i]) + force.y[i] * h;
+                prev.z[i] = here.z[i] + (here.z[i] - prev.z[i]) + force.z[i] * h;
+            }
+        }
+    }
 }
 
 /// Adds `scale` times the pressure force (eq. 3.7, by `c.pressure_law`) on row `j` of `x` to
@@ -522,21 +666,33 @@ fn add_pressure(c: &StepConsts<'_>, j: usize, x: &Soa, out: &mut RowMut<'_>, sca
     }
     let (nx, nz) = (c.grid.nx, c.grid.nz);
     let here = row(x, nx, j);
+    let each = c.pressures.map(|p| &p[j * nx..(j + 1) * nx]);
     match c.pressure_law {
         PressureForce::Thesis => {
             let below = row(x, nx, j.saturating_sub(1));
             let above = row(x, nx, (j + 1).min(nz - 1));
-            let area = if scale == 1.0 {
-                c.pressure_area
-            } else {
-                c.pressure_area * scale
-            };
-            pressure::add_row(out, here, below, above, area);
+            match each {
+                None => {
+                    let area = if scale == 1.0 {
+                        c.pressure_area
+                    } else {
+                        c.pressure_area * scale
+                    };
+                    pressure::add_row(out, here, below, above, area);
+                }
+                Some(p) => pressure::add_row_each(out, here, below, above, p, c.area * scale),
+            }
         }
         PressureForce::Area => {
             let below = (j > 0).then(|| row(x, nx, j - 1));
             let above = (j + 1 < nz).then(|| row(x, nx, j + 1));
-            pressure::add_row_area(out, here, below, above, c.pressure * scale);
+            match each {
+                None => {
+                    let p = c.pressure * scale;
+                    pressure::add_row_area(out, here, below, above, |_| p);
+                }
+                Some(p) => pressure::add_row_area(out, here, below, above, |i| p[i] * scale),
+            }
         }
     }
 }
@@ -560,17 +716,25 @@ fn verlet_row(here: RowRef<'_>, prev: &mut RowMut<'_>, force: RowRef<'_>, h: Rea
 /// (eq. 3.4-3.5, see `collide::contact`), planes on the vectorised row, other shapes one
 /// particle at a time; `contact` flags the particles that touched.
 #[inline(always)]
-fn contact_row(c: &StepConsts<'_>, here: RowRef<'_>, next: &mut RowMut<'_>, contact: &mut [bool]) {
+fn contact_row(
+    c: &StepConsts<'_>,
+    j: usize,
+    here: RowRef<'_>,
+    next: &mut RowMut<'_>,
+    contact: &mut [bool],
+) {
     let nx = here.x.len();
     contact[..nx].fill(false);
+    let scale = c.friction_scale.map(|s| &s[j * nx..(j + 1) * nx]);
     for p in c.planes {
-        plane::contact_row(p, here, next, &mut contact[..nx]);
+        plane::contact_row_scaled(p, here, next, &mut contact[..nx], scale);
     }
     if !c.non_planes.is_empty() {
         for i in 0..nx {
             let now = here.get(i);
             let to = Vec3::new(next.x[i], next.y[i], next.z[i]);
-            let (to, hit) = contact::resolve(c.non_planes, now, to, c.radius);
+            let f = scale.map_or(1.0, |s| s[i]);
+            let (to, hit) = contact::resolve_scaled(c.non_planes, now, to, c.radius, f);
             (next.x[i], next.y[i], next.z[i]) = (to.x, to.y, to.z);
             contact[i] |= hit;
         }

@@ -19,12 +19,21 @@ use crate::params::SimConfig;
 pub struct Model {
     /// The particle grid and its rest geometry (thesis 3.1).
     pub grid: Grid,
-    /// Mass of one particle, kg: the cloth's mass shared equally (thesis 3.1).
+    /// Mass of one particle, kg: the cloth's mass shared equally (thesis 3.1), plus the water
+    /// of a uniformly wet cloth (`[cloth] water_mass`). When the cloth is painted with several
+    /// wetnesses and holds water, particles differ: see [`Model::masses`].
     pub particle_mass: Real,
+    /// Each particle's mass, kg, when they differ (painted wetness with water); `None` when every
+    /// particle weighs [`Model::particle_mass`].
+    pub masses: Option<Vec<Real>>,
     /// Inverse mass of each particle, 1/kg (0 would hold a particle in place). Integrators and
-    /// position corrections weigh moves by it; the thesis' uniform cloth has `1 / particle_mass`
-    /// everywhere.
+    /// position corrections weigh moves by it.
     pub inv_mass: Vec<Real>,
+    /// Wetness of each particle, 0 (dry) to 1 (soaked): `[cloth] wetness` and its paint.
+    pub wetness: Vec<Real>,
+    /// Each particle's share of the colliders' friction, `f + (1 - f) w` (`f` the dry friction
+    /// factor), when it is not 1 everywhere.
+    pub friction_scale: Option<Vec<Real>>,
     /// Radius of a particle's collision sphere, m: `(thickness + collision_margin) / 2`.
     pub radius: Real,
     /// Cloth area per particle S, m^2: rest area / particle count (thesis 3.4).
@@ -59,12 +68,42 @@ impl Model {
         let n = grid.len();
         let cloth_area = config.cloth.size[0] * config.cloth.size[1];
         let radius = config.cloth.particle_radius();
-        let particle_mass = config.cloth.mass / n as Real;
+        let cloth = &config.cloth;
+        let area_per_particle = cloth_area / n as Real;
+        // Wetness at each particle's rest position, relative to the cloth's centre.
+        let rest = grid.rest_positions(Vec3::ZERO);
+        let wetness: Vec<Real> = (0..n)
+            .map(|k| cloth.wetness_at(rest.x[k], rest.z[k]))
+            .collect();
+        let dry_share = cloth.mass / n as Real;
+        let water = |w: Real| cloth.water_mass * w * area_per_particle;
+        let uniform = cloth.uniformly_wet();
+        let particle_mass = if cloth.water_mass > 0.0 && uniform {
+            dry_share + water(cloth.wetness)
+        } else {
+            dry_share
+        };
+        let masses = (cloth.water_mass > 0.0 && !uniform).then(|| {
+            wetness
+                .iter()
+                .map(|&w| dry_share + water(w))
+                .collect::<Vec<_>>()
+        });
+        let inv_mass = match &masses {
+            Some(m) => m.iter().map(|m| 1.0 / m).collect(),
+            None => vec![1.0 / particle_mass; n],
+        };
+        let f = cloth.dry_friction_factor;
+        let friction_scale = (f != 1.0 && wetness.iter().any(|&w| w != 1.0))
+            .then(|| wetness.iter().map(|&w| f + (1.0 - f) * w).collect());
         Self {
             particle_mass,
-            inv_mass: vec![1.0 / particle_mass; n],
+            masses,
+            inv_mass,
+            wetness,
+            friction_scale,
             radius,
-            area_per_particle: cloth_area / n as Real,
+            area_per_particle,
             cloth_area,
             border: grid.border_loop(),
             pressure_force: config.air.pressure_force,
@@ -99,8 +138,26 @@ impl Model {
         }
     }
 
+    /// Mass of particle `k`, kg.
+    #[inline]
+    pub fn mass(&self, k: usize) -> Real {
+        self.masses.as_ref().map_or(self.particle_mass, |m| m[k])
+    }
+
+    /// Mass of the whole cloth with its water, kg.
+    pub fn total_mass(&self) -> Real {
+        match &self.masses {
+            Some(m) => m.iter().sum(),
+            None => self.particle_mass * self.grid.len() as Real,
+        }
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.inv_mass.capacity() * std::mem::size_of::<Real>() + self.border.capacity() * 4
+        let reals = self.inv_mass.capacity()
+            + self.wetness.capacity()
+            + self.masses.as_ref().map_or(0, Vec::capacity)
+            + self.friction_scale.as_ref().map_or(0, Vec::capacity);
+        reals * std::mem::size_of::<Real>() + self.border.capacity() * 4
     }
 }

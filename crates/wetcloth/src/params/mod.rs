@@ -20,8 +20,8 @@ mod cloth;
 mod simulation;
 mod stability;
 
-pub use air::{AirParams, PressureForce, PressureSolve};
-pub use cloth::ClothParams;
+pub use air::{AirModelKind, AirParams, PocketSeed, PressureForce, PressureSolve};
+pub use cloth::{ClothParams, PaintShape, WetPaint};
 pub use simulation::{Integrator, SimulationParams};
 
 use crate::air::gap::StickingPlane;
@@ -146,10 +146,51 @@ impl SimConfig {
             });
         }
 
+        check_range("cloth.wetness", c.wetness, 0.0, 1.0)?;
+        check_range("cloth.water_mass", c.water_mass, 0.0, 100.0)?;
+        check_range(
+            "cloth.dry_friction_factor",
+            c.dry_friction_factor,
+            0.0,
+            10.0,
+        )?;
+        for (i, p) in c.paint.iter().enumerate() {
+            let key = |k: &str| format!("cloth.paint[{i}].{k}");
+            check_range(&key("center"), p.center[0], -1e3, 1e3)?;
+            check_range(&key("center"), p.center[1], -1e3, 1e3)?;
+            check_range(&key("wetness"), p.wetness, 0.0, 1.0)?;
+            match p.shape {
+                PaintShape::Disc(r) => check_open_low(&key("radius"), r, 0.0, 1e3)?,
+                PaintShape::Box(h) => {
+                    check_open_low(&key("half_size"), h[0], 0.0, 1e3)?;
+                    check_open_low(&key("half_size"), h[1], 0.0, 1e3)?;
+                }
+            }
+        }
+
         let a = &self.air;
         check_range("air.atmospheric_pressure", a.atmospheric_pressure, 0.0, 1e7)?;
         check_range("air.trapped_air", a.trapped_air, 0.0, 1e3)?;
         check_range("air.leak_conductance", a.leak_conductance, 0.0, 10.0)?;
+        check_range("air.seal_distance", a.seal_distance, 0.0, 0.1)?;
+        check_open_low("air.seal_wetness", a.seal_wetness, 0.0, 1.0)?;
+        check_range("air.permeability", a.permeability, 0.0, 1.0)?;
+        check_range("air.dry_permeability", a.dry_permeability, 0.0, 1.0)?;
+        for (i, p) in a.pockets.iter().enumerate() {
+            let key = |k: &str| format!("air.pocket[{i}].{k}");
+            check_range(&key("center"), p.center[0], -1e3, 1e3)?;
+            check_range(&key("center"), p.center[1], -1e3, 1e3)?;
+            check_open_low(&key("radius"), p.radius, 0.0, 1e3)?;
+            check_range(&key("amount"), p.amount, 0.0, 1e3)?;
+        }
+        if !a.pockets.is_empty() && a.model != AirModelKind::Pockets {
+            return Err(ConfigError::Invalid {
+                key: "air.pocket".into(),
+                message: "seeded pockets need the pockets model: set [air] model = \"pockets\" \
+                          (the thesis model's air is [air] trapped_air)"
+                    .into(),
+            });
+        }
         if a.enabled && self.sticking_plane().is_none() {
             return Err(ConfigError::Invalid {
                 key: "air.enabled".into(),
