@@ -89,7 +89,8 @@ pub use math::{Real, Soa, Vec3};
 pub use metrics::FrameMetrics;
 pub use model::{Grid, Model};
 pub use params::{
-    AirParams, ClothParams, Integrator, PressureForce, PressureSolve, SimConfig, SimulationParams,
+    AirModelKind, AirParams, ClothParams, Integrator, PaintShape, PocketSeed, PressureForce,
+    PressureSolve, SimConfig, SimulationParams, WetPaint,
 };
 pub use sim::Simulation;
 pub use state::{Motion, State};

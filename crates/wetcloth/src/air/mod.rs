@@ -186,11 +186,14 @@ impl AirModel {
             AirModel::Thesis(b) => (b.applied_pressure - pa)
                 .abs()
                 .max((b.pressure(air, model, enabled) - pa).abs()),
-            AirModel::Pockets(p) => p
-                .pockets
-                .iter()
-                .map(|q| (q.pressure - pa).abs())
-                .fold(0.0, Real::max),
+            // The water film's suction adds to the air's on a sealed rim.
+            AirModel::Pockets(p) => {
+                p.pockets
+                    .iter()
+                    .map(|q| (q.pressure - pa).abs())
+                    .fold(0.0, Real::max)
+                    + model.wet_adhesion
+            }
         }
     }
 

@@ -7,7 +7,8 @@
 //! A particle *seals* when it touches a collider (its centre within its radius plus
 //! `seal_distance` of the surface) and its wetness is at least `seal_wetness`: water closes the
 //! gap there. Dry cloth never seals. A particle inside a pocket whose air pushes out (pressure
-//! above atmospheric) does not seal: the air holds the cloth off the surface.
+//! above atmospheric) does not seal unless it is pressed onto the surface (within its radius):
+//! the air holds the cloth off the surface.
 //!
 //! The cloth's cells (the grid's quads) with an unsealed corner hold air. Air passes between
 //! two neighbouring cells across their shared edge unless both of its particles are sealed, so
@@ -22,7 +23,8 @@
 //! Each step the regions are found again and matched to the pockets of the step before by the
 //! cells they share. A new pocket takes, from every old pocket, the old pocket's air in
 //! proportion to the volume of the old pocket's cells it now holds, plus the volume of the cells
-//! that held no sealed air before (air enclosed now, at atmospheric pressure). So a pocket that
+//! that were open to the room before (air enclosed now, at atmospheric pressure); cells that
+//! held no air (sealed all round) bring none. So a pocket that
 //! forms takes the air it encloses; pockets that merge add their amounts; a pocket that splits
 //! shares its amount in proportion to the parts' volumes (the pressure stays continuous); the
 //! share of a pocket that opens goes to the room. A pocket keeps its id while it persists: the
@@ -89,6 +91,8 @@ pub struct Pockets {
     pub cell_pocket: Vec<u32>,
     /// The pocket (index into `pockets`) of each unsealed particle, or [`NONE`].
     pub particle_pocket: Vec<u32>,
+    /// Whether each cell holds air open to the room (its region reaches the border).
+    pub cell_open: Vec<bool>,
     /// Whether each particle touches a collider (within its radius): a sealed particle that
     /// does not is where a rim is close to opening.
     touching: Vec<bool>,
@@ -132,6 +136,7 @@ impl Pockets {
             sealed: vec![false; n],
             cell_pocket: vec![NONE; cells],
             particle_pocket: vec![NONE; n],
+            cell_open: vec![false; cells],
             touching: vec![false; n],
             delta_p: vec![0.0; n],
             pending: None,
@@ -146,7 +151,7 @@ impl Pockets {
                 dx * dx + dz * dz <= s.radius * s.radius
             })
         };
-        p.seal(air, model, state, |k| seed_of(k).is_none());
+        p.seal(air, model, state, |k, _| seed_of(k).is_none());
         p.resegment(air, model, measures, true);
         // Seeded regions: their air is the seeds' amount.
         let mut seeded = vec![0.0; p.pockets.len()];
@@ -233,7 +238,7 @@ impl Pockets {
 
     /// The load of the step: each particle's pressure difference.
     pub(crate) fn load(&self) -> AirLoad<'_> {
-        if self.pockets.is_empty() {
+        if self.pockets.is_empty() && !self.sealed.iter().any(|&s| s) {
             AirLoad::Uniform(0.0)
         } else {
             AirLoad::PerParticle(&self.delta_p)
@@ -334,7 +339,9 @@ impl Pockets {
                             }
                         }
                     }
-                    if count > 0.0 { sum / count } else { 0.0 }
+                    let air = if count > 0.0 { sum / count } else { 0.0 };
+                    // The water film holds the sealed particle on the surface.
+                    air - model.wet_adhesion * model.wetness[k]
                 } else {
                     0.0
                 };
@@ -370,24 +377,26 @@ impl Pockets {
             }
         }
         self.update_pressures(air);
-        // Seal again; a particle inside a pocket that pushes out stays unsealed.
+        // Seal again; a particle inside a pocket that pushes out stays unsealed unless it is
+        // pressed onto the surface (within its radius).
         let pushing: Vec<bool> = self.pockets.iter().map(|p| p.pressure > pa).collect();
         let old_pocket = self.particle_pocket.clone();
-        self.seal(air, model, state, |k| {
-            old_pocket[k] == NONE || !pushing[old_pocket[k] as usize]
+        self.seal(air, model, state, |k, touching| {
+            touching || old_pocket[k] == NONE || !pushing[old_pocket[k] as usize]
         });
         self.resegment(air, model, measures, false);
         self.update_pressures(air);
     }
 
     /// Marks the particles that seal in `state`: wet enough and within `seal_distance` beyond
-    /// their radius of a collider's surface, where `may_seal(k)` allows.
+    /// their radius of a collider's surface, where `may_seal(k, touching)` allows (`touching`:
+    /// within the radius itself).
     fn seal(
         &mut self,
         air: &AirParams,
         model: &Model,
         state: &State,
-        may_seal: impl Fn(usize) -> bool,
+        may_seal: impl Fn(usize, bool) -> bool,
     ) {
         let reach = model.radius + air.seal_distance;
         for k in 0..state.len() {
@@ -398,7 +407,9 @@ impl Pockets {
                 .map(|c| c.distance(p).0)
                 .fold(Real::INFINITY, Real::min);
             self.touching[k] = gap <= model.radius;
-            self.sealed[k] = model.wetness[k] >= air.seal_wetness && gap <= reach && may_seal(k);
+            self.sealed[k] = model.wetness[k] >= air.seal_wetness
+                && gap <= reach
+                && may_seal(k, self.touching[k]);
         }
     }
 
@@ -525,20 +536,30 @@ impl Pockets {
         sc.overlaps.clear();
         let mut enclosed = vec![0.0; regions];
         let mut old_volume = vec![0.0; self.pockets.len()];
+        let mut old_cells = vec![0u32; self.pockets.len()];
         for c in 0..cells {
             let (r, old) = (sc.region[c], self.cell_pocket[c]);
             let v = measures.cells[c];
-            if old != NONE {
-                old_volume[old as usize] += v;
-            }
-            if r == NONE || open[r as usize] {
+            if r == NONE {
+                // The cell closed (sealed all round): its air is squeezed into the rest of
+                // its pocket, so it takes no share.
                 continue;
             }
-            if old == NONE || fresh {
+            if old != NONE {
+                old_volume[old as usize] += v;
+                old_cells[old as usize] += 1;
+            }
+            if open[r as usize] {
+                continue;
+            }
+            if fresh || (old == NONE && self.cell_open[c]) {
+                // Air of the room (or, at the start, whatever is under the cloth) enclosed now.
                 enclosed[r as usize] += v;
-            } else {
+            } else if old != NONE {
                 sc.overlaps.push((old, r, v, 1));
             }
+            // A cell that held no air (all its corners sealed) brings none: lifting it off
+            // the surface opens empty space that the pocket's air expands into.
         }
         sc.overlaps.sort_by_key(|a| (a.0, a.1));
         sc.overlaps.dedup_by(|later, first| {
@@ -551,13 +572,6 @@ impl Pockets {
             }
         });
         let mut amount = enclosed;
-        let mut old_cells = vec![0u32; self.pockets.len()];
-        for c in 0..cells {
-            let old = self.cell_pocket[c];
-            if old != NONE {
-                old_cells[old as usize] += 1;
-            }
-        }
         for &(old, r, v, n) in &sc.overlaps {
             let o = &self.pockets[old as usize];
             let share = if old_volume[old as usize] > MIN_GAP * o.area {
@@ -609,6 +623,7 @@ impl Pockets {
         }
         for c in 0..cells {
             let r = sc.region[c];
+            self.cell_open[c] = r != NONE && open[r as usize];
             self.cell_pocket[c] = if r == NONE {
                 NONE
             } else {

@@ -34,6 +34,8 @@ pub struct Model {
     /// Each particle's share of the colliders' friction, `f + (1 - f) w` (`f` the dry friction
     /// factor), when it is not 1 everywhere.
     pub friction_scale: Option<Vec<Real>>,
+    /// The water film's suction on a sealed particle at wetness 1, Pa (`[cloth] wet_adhesion`).
+    pub wet_adhesion: Real,
     /// Radius of a particle's collision sphere, m: `(thickness + collision_margin) / 2`.
     pub radius: Real,
     /// Cloth area per particle S, m^2: rest area / particle count (thesis 3.4).
@@ -102,6 +104,7 @@ impl Model {
             inv_mass,
             wetness,
             friction_scale,
+            wet_adhesion: cloth.wet_adhesion,
             radius,
             area_per_particle,
             cloth_area,
