@@ -29,7 +29,14 @@ pub const CLOTH: &[&str] = &[
     "self_collision",
     "strain_limit",
     "strain_limit_iterations",
+    "wetness",
+    "water_mass",
+    "dry_friction_factor",
+    "wet_adhesion",
+    "paint",
 ];
+/// Keys of a `[[cloth.paint]]` region.
+pub const PAINT: &[&str] = &["center", "radius", "half_size", "wetness"];
 /// Keys of `[air]`.
 pub const AIR: &[&str] = &[
     "enabled",
@@ -38,7 +45,15 @@ pub const AIR: &[&str] = &[
     "leak_conductance",
     "pressure_solve",
     "pressure_force",
+    "model",
+    "seal_distance",
+    "seal_wetness",
+    "permeability",
+    "dry_permeability",
+    "pocket",
 ];
+/// Keys of a `[[air.pocket]]` seed.
+pub const POCKET: &[&str] = &["center", "radius", "amount"];
 /// Keys of a `[[collider]]`, all shapes together.
 pub const COLLIDER: &[&str] = &[
     "shape",
@@ -64,6 +79,8 @@ enum Place {
     Collider,
     Grab,
     GrabKey,
+    Paint,
+    Pocket,
 }
 
 impl Place {
@@ -76,6 +93,8 @@ impl Place {
             Place::Collider => COLLIDER,
             Place::Grab => GRAB,
             Place::GrabKey => GRAB_KEY,
+            Place::Paint => PAINT,
+            Place::Pocket => POCKET,
         }
     }
 
@@ -88,6 +107,8 @@ impl Place {
             (Place::Top, "collider") => Some(Place::Collider),
             (Place::Top, "grab") => Some(Place::Grab),
             (Place::Grab, "keys") => Some(Place::GrabKey),
+            (Place::Cloth, "paint") => Some(Place::Paint),
+            (Place::Air, "pocket") => Some(Place::Pocket),
             _ => None,
         }
     }
@@ -101,11 +122,13 @@ impl Place {
             Place::Collider => "collider[].",
             Place::Grab => "grab[].",
             Place::GrabKey => "grab[].keys[].",
+            Place::Paint => "cloth.paint[].",
+            Place::Pocket => "air.pocket[].",
         }
     }
 }
 
-const ALL_PLACES: [Place; 7] = [
+const ALL_PLACES: [Place; 9] = [
     Place::Top,
     Place::Simulation,
     Place::Cloth,
@@ -113,6 +136,8 @@ const ALL_PLACES: [Place; 7] = [
     Place::Collider,
     Place::Grab,
     Place::GrabKey,
+    Place::Paint,
+    Place::Pocket,
 ];
 
 /// An unknown key found in a document.

@@ -9,8 +9,9 @@ use toml::Spanned;
 use toml::de::DeTable;
 use wetcloth::collide::{Cuboid, Plane, Sphere};
 use wetcloth::{
-    AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator, PressureForce,
-    PressureSolve, Real, Shape, SimConfig, SimulationParams, Vec3,
+    AirModelKind, AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator,
+    PaintShape, PocketSeed, PressureForce, PressureSolve, Real, Shape, SimConfig, SimulationParams,
+    Vec3, WetPaint,
 };
 
 /// A fixed-length array that, unlike `[T; N]`, refuses extra elements.
@@ -63,6 +64,20 @@ struct RawCloth {
     self_collision: Option<bool>,
     strain_limit: Option<Real>,
     strain_limit_iterations: Option<usize>,
+    wetness: Option<Real>,
+    water_mass: Option<Real>,
+    dry_friction_factor: Option<Real>,
+    wet_adhesion: Option<Real>,
+    paint: Option<Vec<Spanned<RawPaint>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPaint {
+    center: Option<Arr<Real, 2>>,
+    radius: Option<Real>,
+    half_size: Option<Arr<Real, 2>>,
+    wetness: Real,
 }
 
 #[derive(Deserialize)]
@@ -74,6 +89,20 @@ struct RawAir {
     leak_conductance: Option<Real>,
     pressure_solve: Option<Spanned<String>>,
     pressure_force: Option<Spanned<String>>,
+    model: Option<Spanned<String>>,
+    seal_distance: Option<Real>,
+    seal_wetness: Option<Real>,
+    permeability: Option<Real>,
+    dry_permeability: Option<Real>,
+    pocket: Option<Vec<RawPocket>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPocket {
+    center: Arr<Real, 2>,
+    radius: Real,
+    amount: Real,
 }
 
 #[derive(Deserialize)]
@@ -355,6 +384,38 @@ fn convert(
         set(&mut d.self_collision, c.self_collision);
         set(&mut d.strain_limit, c.strain_limit);
         set(&mut d.strain_limit_iterations, c.strain_limit_iterations);
+        set(&mut d.wetness, c.wetness);
+        set(&mut d.water_mass, c.water_mass);
+        set(&mut d.dry_friction_factor, c.dry_friction_factor);
+        set(&mut d.wet_adhesion, c.wet_adhesion);
+        for (i, p) in c.paint.unwrap_or_default().into_iter().enumerate() {
+            let span = p.span();
+            let p = p.into_inner();
+            let shape = match (p.radius, p.half_size) {
+                (Some(r), None) => PaintShape::Disc(r),
+                (None, Some(h)) => PaintShape::Box(h.0),
+                (r, _) => {
+                    return Err(SceneError::Invalid {
+                        at: cx.at(span.clone()),
+                        key: format!("cloth.paint[{i}]"),
+                        value: cx.raw(&span),
+                        message: if r.is_some() {
+                            "a painted region has either `radius` (a disc) or `half_size` (a \
+                             box), not both"
+                        } else {
+                            "a painted region needs `radius` (a disc, m) or `half_size` (a box, \
+                             [x, z] in m)"
+                        }
+                        .into(),
+                    });
+                }
+            };
+            d.paint.push(WetPaint {
+                center: p.center.map_or([0.0, 0.0], |c| c.0),
+                shape,
+                wetness: p.wetness,
+            });
+        }
     }
 
     let mut air = AirParams::default();
@@ -383,6 +444,30 @@ fn convert(
                 PressureForce::name,
             )?;
         }
+        if let Some(m) = a.model {
+            air.model = named(
+                cx,
+                &m,
+                "air.model",
+                "air model",
+                AirModelKind::ALL,
+                AirModelKind::name,
+            )?;
+        }
+        set(&mut air.seal_distance, a.seal_distance);
+        set(&mut air.seal_wetness, a.seal_wetness);
+        set(&mut air.permeability, a.permeability);
+        set(&mut air.dry_permeability, a.dry_permeability);
+        air.pockets = a
+            .pocket
+            .unwrap_or_default()
+            .into_iter()
+            .map(|p| PocketSeed {
+                center: p.center.0,
+                radius: p.radius,
+                amount: p.amount,
+            })
+            .collect();
     }
 
     // No `[[collider]]` at all means the ground (the thesis' table); `collider = []` means none.

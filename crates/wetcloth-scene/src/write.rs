@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 use wetcloth::collide::{Cuboid, Plane, Sphere};
-use wetcloth::{Real, Shape, SimConfig, Vec3};
+use wetcloth::{PaintShape, Real, Shape, SimConfig, Vec3};
 
 /// A float in TOML: Rust's `{:?}` is the shortest text that parses back to the same `f64` and
 /// always has a `.` or an exponent, so TOML reads it as a float.
@@ -76,6 +76,29 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     let _ = writeln!(o, "self_collision = {}", c.self_collision);
     let _ = writeln!(o, "strain_limit = {}  # ratio, 0 = off", f(c.strain_limit));
     let _ = writeln!(o, "strain_limit_iterations = {}", c.strain_limit_iterations);
+    let _ = writeln!(o, "wetness = {}  # 0 dry .. 1 soaked", f(c.wetness));
+    let _ = writeln!(o, "water_mass = {}  # kg/m^2", f(c.water_mass));
+    let _ = writeln!(o, "dry_friction_factor = {}", f(c.dry_friction_factor));
+    let _ = writeln!(o, "wet_adhesion = {}  # Pa", f(c.wet_adhesion));
+    for p in &c.paint {
+        let _ = writeln!(o);
+        let _ = writeln!(o, "[[cloth.paint]]");
+        let _ = writeln!(
+            o,
+            "center = [{}, {}]  # m, rest (x, z)",
+            f(p.center[0]),
+            f(p.center[1])
+        );
+        match p.shape {
+            PaintShape::Disc(r) => {
+                let _ = writeln!(o, "radius = {}  # m", f(r));
+            }
+            PaintShape::Box(h) => {
+                let _ = writeln!(o, "half_size = [{}, {}]  # m", f(h[0]), f(h[1]));
+            }
+        }
+        let _ = writeln!(o, "wetness = {}", f(p.wetness));
+    }
     let _ = writeln!(o);
     let _ = writeln!(o, "[air]");
     let _ = writeln!(o, "enabled = {}", a.enabled);
@@ -88,6 +111,27 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     let _ = writeln!(o, "leak_conductance = {}  # m^2/s", f(a.leak_conductance));
     let _ = writeln!(o, "pressure_solve = {}", quote(a.pressure_solve.name()));
     let _ = writeln!(o, "pressure_force = {}", quote(a.pressure_force.name()));
+    let _ = writeln!(o, "model = {}", quote(a.model.name()));
+    let _ = writeln!(o, "seal_distance = {}  # m", f(a.seal_distance));
+    let _ = writeln!(o, "seal_wetness = {}", f(a.seal_wetness));
+    let _ = writeln!(o, "permeability = {}  # m/(s Pa)", f(a.permeability));
+    let _ = writeln!(
+        o,
+        "dry_permeability = {}  # m/(s Pa)",
+        f(a.dry_permeability)
+    );
+    for p in &a.pockets {
+        let _ = writeln!(o);
+        let _ = writeln!(o, "[[air.pocket]]");
+        let _ = writeln!(
+            o,
+            "center = [{}, {}]  # m, rest (x, z)",
+            f(p.center[0]),
+            f(p.center[1])
+        );
+        let _ = writeln!(o, "radius = {}  # m", f(p.radius));
+        let _ = writeln!(o, "amount = {}  # m^3 at atmospheric pressure", f(p.amount));
+    }
     for col in &config.colliders {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[collider]]");

@@ -2,7 +2,10 @@
 
 use std::path::Path;
 use wetcloth::collide::{Cuboid, Plane};
-use wetcloth::{AirParams, ClothParams, Collider, GrabKey, GrabSpec, Shape, SimConfig, Vec3};
+use wetcloth::{
+    AirModelKind, AirParams, ClothParams, Collider, GrabKey, GrabSpec, PaintShape, PocketSeed,
+    Shape, SimConfig, Vec3, WetPaint,
+};
 use wetcloth_scene::{SceneError, parse, to_toml};
 
 fn err(text: &str) -> (SceneError, String) {
@@ -340,6 +343,32 @@ fn full_config() -> SimConfig {
     c.cloth.strain_limit = 0.1;
     c.cloth.self_collision = false;
     c.air.trapped_air = 400e-6;
+    c.cloth.wetness = 0.75;
+    c.cloth.water_mass = 0.2;
+    c.cloth.dry_friction_factor = 1.5;
+    c.cloth.wet_adhesion = 800.0;
+    c.cloth.paint = vec![
+        WetPaint {
+            center: [0.05, -0.025],
+            shape: PaintShape::Disc(0.04),
+            wetness: 0.0,
+        },
+        WetPaint {
+            center: [0.0, 0.0],
+            shape: PaintShape::Box([0.1, 0.02]),
+            wetness: 1.0,
+        },
+    ];
+    c.air.model = AirModelKind::Pockets;
+    c.air.seal_distance = 0.001;
+    c.air.seal_wetness = 0.25;
+    c.air.permeability = 1e-7;
+    c.air.dry_permeability = 2e-4;
+    c.air.pockets = vec![PocketSeed {
+        center: [0.0, 0.03],
+        radius: 0.04,
+        amount: 50e-6,
+    }];
     c.colliders.push(Collider::plane(
         Vec3::new(0.5, -1.0, 2.0),
         Vec3::new(1.0, 1.0, 0.0),
@@ -407,6 +436,17 @@ fn every_scene_key_is_written_by_the_resolved_scene() {
         "self_collision",
         "strain_limit",
         "strain_limit_iterations",
+        "wetness",
+        "water_mass",
+        "dry_friction_factor",
+        "wet_adhesion",
+        "half_size",
+        "model",
+        "seal_distance",
+        "seal_wetness",
+        "permeability",
+        "dry_permeability",
+        "amount",
         "enabled",
         "atmospheric_pressure",
         "trapped_air",
@@ -444,4 +484,46 @@ fn the_shipped_scenes_parse_and_round_trip() {
             assert_eq!(back.name, scene.name);
         }
     }
+}
+
+#[test]
+fn pockets_and_wetness_keys_parse_and_are_checked_at_their_place() {
+    let s = parse(
+        "[cloth]\nwetness = 0.5\n\n[[cloth.paint]]\ncenter = [0.1, 0.0]\nradius = 0.05\nwetness = 0.0\n\n[air]\nmodel = \"pockets\"\npermeability = 1e-6\n\n[[air.pocket]]\ncenter = [0.0, 0.0]\nradius = 0.04\namount = 50e-6\n",
+        Path::new("wet.toml"),
+    )
+    .unwrap();
+    let c = &s.config;
+    assert_eq!(c.air.model, AirModelKind::Pockets);
+    assert_eq!(c.air.permeability, 1e-6);
+    assert_eq!(c.cloth.wetness, 0.5);
+    assert_eq!(c.cloth.paint[0].shape, PaintShape::Disc(0.05));
+    assert_eq!(
+        c.air.pockets,
+        vec![PocketSeed {
+            center: [0.0, 0.0],
+            radius: 0.04,
+            amount: 50e-6
+        }]
+    );
+    let (_, msg) = err("[air]\nmodel = \"bubbles\"\n");
+    assert_contains(
+        &msg,
+        &["scene.toml:2:9:", "air.model", "\"thesis\", \"pockets\""],
+    );
+    let (_, msg) = err(
+        "[air]\nmodel = \"pockets\"\n\n[[air.pocket]]\ncenter = [0.0, 0.0]\nradius = -0.04\namount = 1e-6\n",
+    );
+    assert_contains(
+        &msg,
+        &["scene.toml:6:10:", "air.pocket[0].radius = -0.04", "1000]"],
+    );
+    let (_, msg) = err("[[air.pocket]]\ncenter = [0.0, 0.0]\nradius = 0.04\namount = 1e-6\n");
+    assert_contains(&msg, &["air.pocket", "model = \"pockets\""]);
+    let (_, msg) = err("[cloth]\nwetness = 2\n");
+    assert_contains(&msg, &["scene.toml:2:11:", "cloth.wetness = 2", "[0, 1]"]);
+    let (_, msg) = err("[[cloth.paint]]\nradius = 0.1\nhalf_size = [0.1, 0.1]\nwetness = 1\n");
+    assert_contains(&msg, &["scene.toml:1:", "cloth.paint[0]", "not both"]);
+    let (_, msg) = err("[[air.pocket]]\ncentre = [0.0, 0.0]\n");
+    assert_contains(&msg, &["air.pocket[0].centre", "center"]);
 }
