@@ -1,7 +1,7 @@
 //! `wetcloth run [SCENE] [--out DIR]`: run a scene and write its frames and metrics.
 //!
 //! The run directory holds `frames/frame_NNNN.obj` (one mesh per written frame), `rest.obj` (a
-//! copy of frame 0, the mesh point caches apply to), `metrics.csv` (one row per frame),
+//! copy of frame 0, the mesh point caches apply to), `metrics.csv` (one row per frame), `pockets.csv` (one row per sealed air pocket per frame),
 //! `scene.toml` (the scene with every key explicit) and `run.json`; with `--export`, caches. Frame
 //! `k` is the state at the first step whose time is at least `k / frame_rate`; frame 0 is the
 //! state at t = 0. Every file is complete on disk as soon as it is named: frames, `scene.toml`
@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 use wetcloth::metrics::COLUMNS;
 use wetcloth::{Real, SimConfig, Simulation};
 use wetcloth_export::{
-    MetricsCsv, RunInfo, RunStatus, create_fresh, frame_file_name, is_frame_file_name,
+    MetricsCsv, PocketsCsv, RunInfo, RunStatus, create_fresh, frame_file_name, is_frame_file_name,
     write_atomically, write_obj,
 };
 use wetcloth_scene::Scene;
@@ -59,7 +59,7 @@ pub struct RunArgs {
 }
 
 /// Units of the metrics columns, for the summary.
-const UNITS: [&str; 9] = ["s", "m^3", "Pa", "J", "", "", "m", "N", "m^3"];
+const UNITS: [&str; 10] = ["s", "m^3", "Pa", "J", "", "", "m", "N", "m^3", ""];
 
 /// Relative tolerance when counting frames, so that `duration * frame_rate` a hair below an
 /// integer by round-off (0.29 * 100 = 28.999999999999996) still counts that last frame.
@@ -160,6 +160,10 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
         let csv_file = create_fresh(&csv_path).map_err(CliError::output(&csv_path))?;
         let mut csv =
             MetricsCsv::new(BufWriter::new(csv_file)).map_err(CliError::output(&csv_path))?;
+        let pockets_path = dir.join("pockets.csv");
+        let pockets_file = create_fresh(&pockets_path).map_err(CliError::output(&pockets_path))?;
+        let mut pockets_csv = PocketsCsv::new(BufWriter::new(pockets_file))
+            .map_err(CliError::output(&pockets_path))?;
 
         let last = last_frame(&config);
         let rate = config.simulation.frame_rate;
@@ -176,6 +180,9 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
             .map_err(CliError::output(&path))?;
             csv.write_row(k, &sim.metrics())
                 .map_err(CliError::output(&csv_path))?;
+            pockets_csv
+                .write_frame(k, sim.time(), &sim.pocket_reports())
+                .map_err(CliError::output(&pockets_path))?;
             if k == 0 {
                 wetcloth_export::write_rest_obj(&dir).map_err(|e| match e {
                     wetcloth_export::ExportError::Output { path, source } => {
@@ -306,7 +313,7 @@ fn print_summary(scene: &Scene, sim: &Simulation, dir: &Path, frames: u64, wall:
     let sps = steps as f64 / secs;
     println!("wetcloth run: {} -> {}", scene.name, dir.display());
     println!(
-        "  frames     {frames} ({} .. {}), metrics.csv, scene.toml, run.json",
+        "  frames     {frames} ({} .. {}), metrics.csv, pockets.csv, scene.toml, run.json",
         frame_file_name(0),
         frame_file_name(frames - 1)
     );

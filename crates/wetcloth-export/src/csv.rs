@@ -6,8 +6,8 @@ use wetcloth::metrics::COLUMNS;
 
 /// The header of `metrics.csv`, without the line end: `frame` followed by
 /// [`wetcloth::metrics::COLUMNS`]. Units: frame number, s, m^3, Pa, J, ratio, ratio 0..1, m, N,
-/// m^3.
-pub const CSV_HEADER: &str = "frame,time,air_volume,air_pressure,kinetic_energy,max_stretch,contact_fraction,max_height,grab_force,trapped_air";
+/// m^3, count.
+pub const CSV_HEADER: &str = "frame,time,air_volume,air_pressure,kinetic_energy,max_stretch,contact_fraction,max_height,grab_force,trapped_air,pocket_count";
 
 /// The header built from [`wetcloth::metrics::COLUMNS`] (equal to [`CSV_HEADER`]; a test keeps
 /// them in step).
@@ -59,9 +59,83 @@ impl<W: Write> MetricsCsv<W> {
     }
 }
 
+/// The header of `pockets.csv`, without the line end. Units: frame number, s, id, m^3, m^3 at
+/// atmospheric pressure, Pa, m^2, count.
+pub const POCKETS_CSV_HEADER: &str = "frame,time,pocket,volume,amount,pressure,area,particles";
+
+/// Writes `pockets.csv`: the header on creation, then one row per sealed air pocket per frame
+/// (with the thesis' single bubble, one row per frame, pocket 0), each frame flushed at once.
+#[derive(Debug)]
+pub struct PocketsCsv<W: Write> {
+    w: W,
+}
+
+impl<W: Write> PocketsCsv<W> {
+    /// Writes the header line to `w` and flushes it.
+    pub fn new(mut w: W) -> io::Result<Self> {
+        writeln!(w, "{POCKETS_CSV_HEADER}")?;
+        w.flush()?;
+        Ok(Self { w })
+    }
+
+    /// Writes the rows of frame `frame` at `time` (s), one per pocket, and flushes them.
+    pub fn write_frame(
+        &mut self,
+        frame: u64,
+        time: f64,
+        pockets: &[wetcloth::air::PocketReport],
+    ) -> io::Result<()> {
+        let mut text = String::new();
+        for p in pockets {
+            let n = crate::number;
+            text.push_str(&format!(
+                "{frame},{},{},{},{},{},{},{}\n",
+                n(time),
+                p.id,
+                n(p.volume),
+                n(p.amount),
+                n(p.pressure),
+                n(p.area),
+                p.particles
+            ));
+        }
+        self.w.write_all(text.as_bytes())?;
+        self.w.flush()
+    }
+
+    /// The underlying writer.
+    pub fn into_inner(self) -> W {
+        self.w
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pockets_rows_one_per_pocket_in_full_precision() {
+        let mut csv = PocketsCsv::new(Vec::new()).unwrap();
+        let p = |id, amount: f64| wetcloth::air::PocketReport {
+            id,
+            volume: 0.1 + 0.2,
+            amount,
+            pressure: 101325.5,
+            area: 1e-3,
+            particles: 7,
+        };
+        csv.write_frame(3, 0.05, &[p(1, 2e-5), p(4, 0.0)]).unwrap();
+        csv.write_frame(4, 0.06, &[]).unwrap();
+        let text = String::from_utf8(csv.into_inner()).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], POCKETS_CSV_HEADER);
+        assert_eq!(lines.len(), 3);
+        let f: Vec<&str> = lines[1].split(',').collect();
+        assert_eq!(f[..3], ["3", "0.05", "1"]);
+        assert_eq!(f[3].parse::<f64>().unwrap(), 0.1 + 0.2);
+        assert_eq!(f[7], "7");
+        assert!(lines[2].starts_with("3,0.05,4,"));
+    }
 
     #[test]
     fn header_and_rows_in_full_precision() {
@@ -77,6 +151,7 @@ mod tests {
             max_height: 1.0 / 3.0,
             grab_force: 2.5,
             trapped_air: 4e-4,
+            pocket_count: 1.0,
         };
         csv.write_row(7, &m).unwrap();
         assert_eq!(csv.rows(), 1);

@@ -32,7 +32,7 @@ pub mod usd;
 
 pub use atomic::{create_fresh, part_path, remove_if_present, write_atomically};
 pub use cache::{CacheFormat, CacheSpec, CacheWriter, Frame};
-pub use csv::{CSV_HEADER, MetricsCsv, csv_header};
+pub use csv::{CSV_HEADER, MetricsCsv, POCKETS_CSV_HEADER, PocketsCsv, csv_header};
 pub use export::{
     ExportError, ExportJob, REST_OBJ, RunFolder, export_run, read_run_folder, write_rest_obj,
 };

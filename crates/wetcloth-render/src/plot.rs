@@ -13,7 +13,7 @@ use crate::error::RenderError;
 
 /// The columns of `metrics.csv` the plot reads: `frame` and the core's own list
 /// ([`wetcloth::metrics::COLUMNS`]; units: frame number, s, m^3, Pa, J, ratio, ratio, m, N,
-/// m^3). Extra columns are ignored.
+/// m^3, count). Extra columns are ignored; `pocket_count` may be missing.
 pub const COLUMNS: [&str; 1 + wetcloth::metrics::COLUMNS.len()] = {
     let core = wetcloth::metrics::COLUMNS;
     let mut out = ["frame"; 1 + wetcloth::metrics::COLUMNS.len()];
@@ -48,6 +48,8 @@ pub struct Metrics {
     pub grab_force: Vec<f64>,
     /// Air trapped under the cloth, m^3 at atmospheric pressure.
     pub trapped_air: Vec<f64>,
+    /// Sealed pockets (empty when the file predates the column).
+    pub pocket_count: Vec<f64>,
 }
 
 impl Metrics {
@@ -63,6 +65,7 @@ impl Metrics {
             "max_height" => &mut self.max_height,
             "grab_force" => &mut self.grab_force,
             "trapped_air" => &mut self.trapped_air,
+            "pocket_count" => &mut self.pocket_count,
             _ => return None,
         })
     }
@@ -96,7 +99,8 @@ pub fn parse_metrics(text: &str, path: &Path) -> Result<Metrics, RenderError> {
         return Err(err(1, "empty file: expected a header line and rows".into()));
     };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
-    for c in COLUMNS {
+    // `pocket_count` came later: a file without it still plots.
+    for c in COLUMNS.into_iter().filter(|c| *c != "pocket_count") {
         if !names.contains(&c) {
             return Err(err(
                 hl + 1,

@@ -118,9 +118,10 @@ impl EnergyAudit {
 /// Kinetic plus elastic plus gravitational energy of the cloth, J (gravity's zero at the
 /// origin).
 pub fn mechanical_energy(model: &Model, state: &State, dt: Real) -> Real {
-    let weight = model.gravity * model.particle_mass;
-    let gravity: Real = (0..state.len()).map(|k| -weight.dot(state.x.get(k))).sum();
-    state.kinetic_energy(model.particle_mass, dt)
+    let gravity: Real = (0..state.len())
+        .map(|k| -model.mass(k) * model.gravity.dot(state.x.get(k)))
+        .sum();
+    state.kinetic_energy_with(model.masses.as_deref(), model.particle_mass, dt)
         + spring::potential_energy(&model.springs, &state.x)
         + gravity
 }

@@ -4,7 +4,7 @@ use crate::math::Real;
 use crate::sim::Simulation;
 
 /// Column names of [`FrameMetrics::values`], in order, as in `metrics.csv` (after `frame`).
-pub const COLUMNS: [&str; 9] = [
+pub const COLUMNS: [&str; 10] = [
     "time",
     "air_volume",
     "air_pressure",
@@ -14,6 +14,7 @@ pub const COLUMNS: [&str; 9] = [
     "max_height",
     "grab_force",
     "trapped_air",
+    "pocket_count",
 ];
 
 /// Measurements of one state.
@@ -39,6 +40,8 @@ pub struct FrameMetrics {
     pub grab_force: Real,
     /// Air trapped under the cloth, m^3 at atmospheric pressure (changes only with a leak).
     pub trapped_air: Real,
+    /// Sealed pockets (the pockets model); 1 with the thesis' single bubble.
+    pub pocket_count: Real,
 }
 
 impl FrameMetrics {
@@ -66,19 +69,22 @@ impl FrameMetrics {
             time: sim.time(),
             air_volume: sim.air_volume(),
             air_pressure: sim.air_pressure(),
-            kinetic_energy: sim
-                .state()
-                .kinetic_energy(sim.particle_mass(), sim.time_step()),
+            kinetic_energy: sim.state().kinetic_energy_with(
+                sim.model().masses.as_deref(),
+                sim.particle_mass(),
+                sim.time_step(),
+            ),
             max_stretch,
             contact_fraction: contacts as Real / n as Real,
             max_height,
             grab_force: sim.grab_force().length(),
             trapped_air: sim.trapped_air(),
+            pocket_count: sim.pocket_count() as Real,
         }
     }
 
     /// The values in [`COLUMNS`] order.
-    pub fn values(&self) -> [Real; 9] {
+    pub fn values(&self) -> [Real; 10] {
         [
             self.time,
             self.air_volume,
@@ -89,6 +95,7 @@ impl FrameMetrics {
             self.max_height,
             self.grab_force,
             self.trapped_air,
+            self.pocket_count,
         ]
     }
 }

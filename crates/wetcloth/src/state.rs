@@ -127,6 +127,34 @@ impl State {
         }
     }
 
+    /// Kinetic energy, J, of particles of equal mass `mass` (kg), or of masses `masses` (kg,
+    /// one per particle) when given.
+    pub fn kinetic_energy_with(&self, masses: Option<&[Real]>, mass: Real, dt: Real) -> Real {
+        match masses {
+            Some(m) => self.kinetic_energy_of(|k| m[k], dt),
+            None => self.kinetic_energy(mass, dt),
+        }
+    }
+
+    /// Kinetic energy, J, of particles of masses `mass(k)` (kg), with the velocities of
+    /// [`State::velocity`] (`dt`, s, the step of Verlet's previous positions).
+    pub fn kinetic_energy_of(&self, mass: impl Fn(usize) -> Real, dt: Real) -> Real {
+        match &self.motion {
+            Motion::Previous(p) => {
+                let v2: Real = (0..self.len())
+                    .map(|k| mass(k) * (self.x.get(k) - p.get(k)).length_squared())
+                    .sum();
+                0.5 * v2 / (dt * dt)
+            }
+            Motion::Velocity(v) => {
+                let v2: Real = (0..self.len())
+                    .map(|k| mass(k) * v.get(k).length_squared())
+                    .sum();
+                0.5 * v2
+            }
+        }
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         let motion = match &self.motion {

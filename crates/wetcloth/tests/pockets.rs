@@ -86,13 +86,21 @@ fn seeded_pocket_under_wet_cloth_keeps_its_air_and_obeys_boyle() {
     let mut worst: Real = 0.0;
     let mut worst_boyle: Real = 0.0;
     run(&mut sim, 0.5, |s| {
+        // The seed's air stays sealed (parts may split off where the inflating cloth folds
+        // onto the table, and rejoin).
         let r = s.pocket_reports();
-        assert_eq!(r.len(), 1, "at t = {}: {r:?}", s.time());
-        worst = worst.max((r[0].amount - amount).abs() / amount);
-        worst_boyle =
-            worst_boyle.max((r[0].pressure * r[0].volume - pa * r[0].amount).abs() / (pa * amount));
+        let held: Real = r.iter().map(|p| p.amount).sum();
+        worst = worst.max((held - amount).abs() / amount);
+        for p in &r {
+            worst_boyle =
+                worst_boyle.max((p.pressure * p.volume - pa * p.amount).abs() / (pa * amount));
+        }
     });
-    let r = &sim.pocket_reports()[0];
+    let r = sim
+        .pocket_reports()
+        .into_iter()
+        .max_by(|a, b| a.amount.total_cmp(&b.amount))
+        .unwrap();
     eprintln!("{r:?} worst {worst} boyle {worst_boyle}");
     assert!(worst <= 1e-9, "amount drifted by {worst}");
     assert!(worst_boyle <= 1e-9, "P V - P_a N off by {worst_boyle}");
@@ -124,14 +132,14 @@ fn seeded_air_under_dry_cloth_is_gone_within_a_second() {
 fn merging_pockets_conserve_air() {
     let mut cfg = flat_wet(31, 0.3);
     let amount = 20e-6;
-    cfg.air.pockets = [-0.07, 0.07]
+    cfg.air.pockets = [-0.08, 0.08]
         .map(|x| wetcloth::PocketSeed {
             center: [x, 0.0],
-            radius: 0.04,
+            radius: 0.035,
             amount,
         })
         .to_vec();
-    cfg.grabs = vec![GrabSpec::lift([15, 15], 0.1, 0.5, 0.03)];
+    cfg.grabs = vec![GrabSpec::lift([15, 15], 0.1, 0.5, 0.02)];
     let mut sim = Simulation::new(cfg).unwrap();
     let total = 2.0 * amount;
     let mut worst: Real = 0.0;

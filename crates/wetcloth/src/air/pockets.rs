@@ -581,6 +581,36 @@ impl Pockets {
             };
             amount[r as usize] += o.amount * share.clamp(0.0, 1.0);
         }
+        // A pocket whose cells all closed (squeezed flat) pushes its air under the seal into
+        // the nearest air (within two cells of where it was): a sealed pocket takes it, an
+        // open region lets it out to the room.
+        for (o, pocket) in self.pockets.iter().enumerate() {
+            if old_cells[o] > 0 || pocket.amount <= 0.0 {
+                continue;
+            }
+            let mut target = None;
+            'search: for reach in 1..=2isize {
+                for c in (0..cells).filter(|&c| self.cell_pocket[c] == o as u32) {
+                    let (i, j) = ((c % m) as isize, (c / m) as isize);
+                    for (di, dj) in [(-reach, 0), (reach, 0), (0, -reach), (0, reach)] {
+                        let (a, b) = (i + di, j + dj);
+                        if a < 0 || b < 0 || a >= m as isize || b >= (nz - 1) as isize {
+                            continue;
+                        }
+                        let r = sc.region[b as usize * m + a as usize];
+                        if r != NONE {
+                            target = Some(r);
+                            break 'search;
+                        }
+                    }
+                }
+            }
+            if let Some(r) = target
+                && !open[r as usize]
+            {
+                amount[r as usize] += pocket.amount;
+            }
+        }
         // Ids: an old pocket's id goes to the new pocket sharing most of its cells.
         let mut claims: Vec<(u32, u32, u32)> = sc
             .overlaps

@@ -56,10 +56,11 @@ pub struct ClothParams {
     pub dry_friction_factor: Real,
     /// With the pockets model: the water film's suction on a sealed particle of a soaked
     /// cloth, Pa (a particle of wetness `w` is pulled onto the surface by `wet_adhesion * w * S`
-    /// newtons while it seals). Capillary pressure `2 gamma / d` of a film `d` thick: water
-    /// (`gamma` = 0.072 N/m) in a 0.15 mm film gives about 1000 Pa. It is what keeps a pocket's
-    /// rim sealed against the air pushing out; lifting a rim beyond `[air] seal_distance` breaks
-    /// it. Default 1000; range [0, 1e6].
+    /// newtons while it seals, that is within `[air] seal_distance` of touching). Lifting a
+    /// sealed particle off costs `wet_adhesion * seal_distance` joules per m^2, the work of
+    /// adhesion of the water film, `2 gamma` = 0.144 J/m^2 for water (`gamma` = 0.072 N/m): with
+    /// the default seal distance (0.5 mm) that is about 300 Pa. It is what keeps a pocket's rim
+    /// sealed against the air pushing out. Default 300; range [0, 1e6].
     pub wet_adhesion: Real,
 }
 
@@ -116,7 +117,7 @@ impl Default for ClothParams {
             paint: Vec::new(),
             water_mass: 0.0,
             dry_friction_factor: 1.0,
-            wet_adhesion: 1000.0,
+            wet_adhesion: 300.0,
         }
     }
 }
