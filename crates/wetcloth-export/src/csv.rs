@@ -37,9 +37,14 @@ impl<W: Write> MetricsCsv<W> {
     /// Writes the row of frame `frame` (values in full precision) and flushes it.
     pub fn write_row(&mut self, frame: u64, m: &FrameMetrics) -> io::Result<()> {
         let mut line = frame.to_string();
-        for v in m.values() {
+        for (name, v) in COLUMNS.iter().zip(m.values()) {
             line.push(',');
-            line.push_str(&crate::number(v));
+            if *name == "pocket_count" {
+                // A count: written as an integer.
+                line.push_str(&(v as u64).to_string());
+            } else {
+                line.push_str(&crate::number(v));
+            }
         }
         line.push('\n');
         self.w.write_all(line.as_bytes())?;
@@ -160,7 +165,7 @@ mod tests {
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(
             lines[1],
-            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5,0.0004"
+            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5,0.0004,1"
         );
         let parsed: Vec<f64> = lines[1].split(',').map(|v| v.parse().unwrap()).collect();
         assert_eq!(parsed[1..], m.values());
