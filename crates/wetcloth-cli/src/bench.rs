@@ -13,6 +13,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
+use wetcloth::AirModelKind;
 use wetcloth::Simulation;
 use wetcloth::bench::thesis_workload;
 
@@ -57,6 +58,18 @@ pub struct BenchArgs {
     /// Measure with self-collision off (to see what it costs).
     #[arg(long)]
     pub no_self_collision: bool,
+
+    /// The air model to measure: `thesis` (the single bubble) or `pockets` (sealed pockets:
+    /// the cloth is wet and seals where it touches, so the pockets' search runs every step).
+    #[arg(long, default_value = "thesis", value_name = "MODEL", value_parser = parse_air_model)]
+    pub air_model: AirModelKind,
+}
+
+fn parse_air_model(s: &str) -> Result<AirModelKind, String> {
+    AirModelKind::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = AirModelKind::ALL.iter().map(|m| m.name()).collect();
+        format!("unknown air model `{s}`: allowed {}", names.join(", "))
+    })
 }
 
 fn parse_seconds(s: &str) -> Result<f64, String> {
@@ -89,6 +102,8 @@ pub struct Measurement {
     pub time_step: f64,
     /// Whether self-collision was on.
     pub self_collision: bool,
+    /// The air model (`thesis` or `pockets`).
+    pub air_model: &'static str,
     /// Heap memory the simulation held at the end, bytes (`Simulation::memory_bytes`).
     pub memory_bytes: usize,
     /// Fastest and slowest window, steps per second.
@@ -130,7 +145,13 @@ pub fn bench(args: &BenchArgs, quiet: bool) -> Result<(), CliError> {
     for &side in &sizes {
         for &t in &threads {
             bar.set_message(format!("{side} x {side}, {t} thread(s)"));
-            results.push(measure(side, t, args.seconds, !args.no_self_collision)?);
+            results.push(measure(
+                side,
+                t,
+                args.seconds,
+                !args.no_self_collision,
+                args.air_model,
+            )?);
             bar.inc(1);
         }
     }
@@ -152,6 +173,7 @@ fn measure(
     threads: usize,
     seconds: f64,
     self_collision: bool,
+    air_model: AirModelKind,
 ) -> Result<Measurement, CliError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -159,6 +181,7 @@ fn measure(
         .map_err(|e| CliError::Setup(format!("cannot start {threads} threads: {e}")))?;
     let mut cfg = thesis_workload(side);
     cfg.cloth.self_collision = self_collision;
+    cfg.air.model = air_model;
     let dt = cfg.simulation.time_step;
     let particles = side * side;
     pool.install(|| {
@@ -206,6 +229,7 @@ fn measure(
             real_time_factor: median * dt,
             time_step: dt,
             self_collision,
+            air_model: air_model.name(),
             memory_bytes: sim.memory_bytes(),
             steps_per_second_range: [rates[0], rates[rates.len() - 1]],
             windows: WINDOWS,

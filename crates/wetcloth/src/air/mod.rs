@@ -73,7 +73,7 @@ pub enum AirModel {
     /// The thesis' single bubble (3.4).
     Thesis(Bubble),
     /// Sealed pockets ([`pockets`]).
-    Pockets(Pockets),
+    Pockets(Box<Pockets>),
 }
 
 impl AirModel {
@@ -82,7 +82,9 @@ impl AirModel {
     pub(crate) fn new(air: &AirParams, model: &Model, state: &State, measures: &Measures) -> Self {
         match air.model {
             AirModelKind::Thesis => AirModel::Thesis(Bubble::new(air.trapped_air)),
-            AirModelKind::Pockets => AirModel::Pockets(Pockets::new(air, model, state, measures)),
+            AirModelKind::Pockets => {
+                AirModel::Pockets(Box::new(Pockets::new(air, model, state, measures)))
+            }
         }
     }
 

@@ -96,6 +96,13 @@ pub struct Pockets {
     /// Whether each particle touches a collider (within its radius): a sealed particle that
     /// does not is where a rim is close to opening.
     touching: Vec<bool>,
+    /// `sealed` before the last sealing, to skip the region search when nothing changed.
+    previous_sealed: Vec<bool>,
+    /// Whether any particle seals.
+    any_sealed: bool,
+    /// Whether `delta_p` holds the water film's pull alone for the current sealing (no pockets),
+    /// so that the next step without pockets need not spread again.
+    spread_bare: bool,
     /// The pressure difference each particle feels during the step, Pa.
     delta_p: Vec<Real>,
     /// Whether the step's pressures are solved at its end (implicit), and its constants.
@@ -122,6 +129,10 @@ struct Scratch {
     region: Vec<u32>,
     /// (old pocket, new region, shared volume, shared cells), one per cell then merged.
     overlaps: Vec<(u32, u32, Real, u32)>,
+    /// The region of each union-find root (by cell index), or NONE.
+    root_region: Vec<u32>,
+    /// Each particle's distance to the nearest collider surface, m.
+    gap: Vec<Real>,
 }
 
 impl Pockets {
@@ -138,6 +149,9 @@ impl Pockets {
             particle_pocket: vec![NONE; n],
             cell_open: vec![false; cells],
             touching: vec![false; n],
+            previous_sealed: vec![false; n],
+            any_sealed: false,
+            spread_bare: false,
             delta_p: vec![0.0; n],
             pending: None,
             next_id: 1,
@@ -219,6 +233,10 @@ impl Pockets {
             Timing::EndOfStep
         } else {
             self.pending = None;
+            if self.pockets.is_empty() && self.spread_bare {
+                // No pockets and the same sealing: the film's pull is as last step.
+                return Timing::Now;
+            }
             let pa = air.atmospheric_pressure;
             let pressures: Vec<Real> = self
                 .pockets
@@ -238,7 +256,7 @@ impl Pockets {
 
     /// The load of the step: each particle's pressure difference.
     pub(crate) fn load(&self) -> AirLoad<'_> {
-        if self.pockets.is_empty() && !self.sealed.iter().any(|&s| s) {
+        if self.pockets.is_empty() && !self.any_sealed {
             AirLoad::Uniform(0.0)
         } else {
             AirLoad::PerParticle(&self.delta_p)
@@ -316,6 +334,7 @@ impl Pockets {
     /// pocket): the pocket's for a particle inside it, the mean of the cells around it for a
     /// sealed particle.
     fn spread(&mut self, model: &Model, pressures: &[Real]) {
+        self.spread_bare = pressures.is_empty();
         let (nx, nz) = (model.grid.nx, model.grid.nz);
         let m = nx - 1;
         for j in 0..nz {
@@ -379,12 +398,24 @@ impl Pockets {
         self.update_pressures(air);
         // Seal again; a particle inside a pocket that pushes out stays unsealed unless it is
         // pressed onto the surface (within its radius).
-        let pushing: Vec<bool> = self.pockets.iter().map(|p| p.pressure > pa).collect();
-        let old_pocket = self.particle_pocket.clone();
-        self.seal(air, model, state, |k, touching| {
-            touching || old_pocket[k] == NONE || !pushing[old_pocket[k] as usize]
-        });
-        self.resegment(air, model, measures, false);
+        std::mem::swap(&mut self.sealed, &mut self.previous_sealed);
+        if self.pockets.iter().any(|p| p.pressure > pa) {
+            let pushing: Vec<bool> = self.pockets.iter().map(|p| p.pressure > pa).collect();
+            let old_pocket = self.particle_pocket.clone();
+            self.seal(air, model, state, |k, touching| {
+                touching || old_pocket[k] == NONE || !pushing[old_pocket[k] as usize]
+            });
+        } else {
+            self.seal(air, model, state, |_, _| true);
+        }
+        if self.sealed == self.previous_sealed {
+            // The same sealed particles: the same regions and pockets, with their air (their
+            // volumes are measured above); only the rims may have moved.
+            self.measure_rims(&model.grid);
+        } else {
+            self.spread_bare = false;
+            self.resegment(air, model, measures, false);
+        }
         self.update_pressures(air);
     }
 
@@ -399,18 +430,32 @@ impl Pockets {
         may_seal: impl Fn(usize, bool) -> bool,
     ) {
         let reach = model.radius + air.seal_distance;
+        // Each particle's distance to the nearest collider surface, collider by collider (a
+        // plane's is a vectorised dot product).
+        let gap = &mut self.scratch.gap;
+        gap.clear();
+        gap.resize(state.len(), Real::INFINITY);
+        let x = &state.x;
+        for c in &model.colliders {
+            if let crate::collide::Shape::Plane(plane) = &c.shape {
+                let (n, o) = (plane.normal, plane.normal.dot(plane.point));
+                for (k, g) in gap.iter_mut().enumerate() {
+                    *g = g.min(n.x * x.x[k] + n.y * x.y[k] + n.z * x.z[k] - o);
+                }
+            } else {
+                for (k, g) in gap.iter_mut().enumerate() {
+                    *g = g.min(c.distance(x.get(k)).0);
+                }
+            }
+        }
         for k in 0..state.len() {
-            let p = state.x.get(k);
-            let gap = model
-                .colliders
-                .iter()
-                .map(|c| c.distance(p).0)
-                .fold(Real::INFINITY, Real::min);
+            let gap = self.scratch.gap[k];
             self.touching[k] = gap <= model.radius;
             self.sealed[k] = model.wetness[k] >= air.seal_wetness
                 && gap <= reach
                 && may_seal(k, self.touching[k]);
         }
+        self.any_sealed = self.sealed.iter().any(|&s| s);
     }
 
     /// The volumes of the current pockets' cells in `measures`, and their rims' open length.
@@ -487,7 +532,9 @@ impl Pockets {
         // cells has an unsealed particle.
         sc.region.clear();
         sc.region.resize(cells, NONE);
-        let mut root_region: Vec<(u32, u32)> = Vec::new(); // (root, region)
+        // The region of each union-find root, by the root's cell index.
+        sc.root_region.clear();
+        sc.root_region.resize(cells, NONE);
         let mut open: Vec<bool> = Vec::new();
         for j in 0..nz - 1 {
             for i in 0..m {
@@ -496,14 +543,14 @@ impl Pockets {
                 }
                 let c = j * m + i;
                 let root = find(&mut sc.parent, c as u32);
-                let r = match root_region.iter().find(|(rt, _)| *rt == root) {
-                    Some(&(_, r)) => r,
-                    None => {
+                let r = match sc.root_region[root as usize] {
+                    NONE => {
                         let r = open.len() as u32;
-                        root_region.push((root, r));
+                        sc.root_region[root as usize] = r;
                         open.push(false);
                         r
                     }
+                    r => r,
                 };
                 sc.region[c] = r;
                 let border = (j == 0 && (corner(i, 0) || corner(i + 1, 0)))
@@ -676,10 +723,22 @@ impl Pockets {
                 }
             }
         }
-        // Rims close to opening: sealed corners of a pocket's cells that do not touch.
+        self.pockets = pockets;
+        self.measure_rims(grid);
+    }
+
+    /// The length of each pocket's rim close to opening: sealed corners of its cells that do
+    /// not touch the surface.
+    fn measure_rims(&mut self, grid: &crate::model::Grid) {
+        if self.pockets.is_empty() {
+            return;
+        }
+        let (nx, m) = (grid.nx, grid.nx - 1);
         let spacing = 0.5 * (grid.dx + grid.dz);
-        for c in 0..cells {
-            let q = self.cell_pocket[c];
+        for p in &mut self.pockets {
+            p.rim_open = 0.0;
+        }
+        for (c, &q) in self.cell_pocket.iter().enumerate() {
             if q == NONE {
                 continue;
             }
@@ -692,10 +751,9 @@ impl Pockets {
             ] {
                 if self.sealed[k] && !self.touching[k] {
                     // A corner is shared by up to four cells: a quarter of its length each.
-                    pockets[q as usize].rim_open += 0.25 * spacing;
+                    self.pockets[q as usize].rim_open += 0.25 * spacing;
                 }
             }
         }
-        self.pockets = pockets;
     }
 }
