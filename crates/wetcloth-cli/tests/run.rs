@@ -407,3 +407,103 @@ fn without_a_scene_the_thesis_demo_runs_into_out_thesis_demo() {
         .count();
     assert_eq!(rows, 1 + 181);
 }
+
+/// A seeded pocket under a small wet cloth (pockets model), pressed at its middle.
+const POCKET: &str = r#"
+name = "pocket"
+[simulation]
+duration = 0.2
+frame_rate = 40
+[cloth]
+resolution = [15, 15]
+size = [0.14, 0.14]
+mass = 0.005
+position = [0.0, 0.00075, 0.0]
+damping = 2.0
+self_collision = false
+[air]
+model = "pockets"
+[[air.pocket]]
+center = [0.0, 0.0]
+radius = 0.03
+amount = 5e-6
+"#;
+
+#[test]
+fn pockets_csv_lists_each_sealed_pocket_per_frame() {
+    let dir = scratch("pockets-csv");
+    let scene = write_scene(&dir, "pocket.toml", POCKET);
+    let mut texts = Vec::new();
+    for threads in ["1", "2"] {
+        let out = dir.join(format!("t{threads}"));
+        let o = wetcloth(
+            &[
+                "run",
+                &scene,
+                "--out",
+                out.to_str().unwrap(),
+                "--threads",
+                threads,
+            ],
+            &[],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        texts.push(fs::read_to_string(out.join("pockets.csv")).unwrap());
+        let metrics = fs::read_to_string(out.join("metrics.csv")).unwrap();
+        let header: Vec<&str> = metrics.lines().next().unwrap().split(',').collect();
+        let col = header.iter().position(|c| *c == "pocket_count").unwrap();
+        let trapped = header.iter().position(|c| *c == "trapped_air").unwrap();
+        for line in metrics.lines().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            assert_eq!(f[col], "1", "{line}");
+            let t: f64 = f[trapped].parse().unwrap();
+            assert!((t - 5e-6).abs() < 1e-15, "{line}");
+        }
+    }
+    assert_eq!(
+        texts[0], texts[1],
+        "pockets.csv depends on the thread count"
+    );
+    let lines: Vec<&str> = texts[0].lines().collect();
+    assert_eq!(
+        lines[0],
+        "frame,time,pocket,volume,amount,pressure,area,particles"
+    );
+    // One pocket in each of the 9 frames, keeping its id, with P V = P_a N.
+    assert_eq!(lines.len(), 1 + 9);
+    for (k, line) in lines[1..].iter().enumerate() {
+        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        assert_eq!(f[0], k as f64);
+        assert_eq!(f[2], 1.0, "the pocket keeps its id: {line}");
+        let (v, n, p) = (f[3], f[4], f[5]);
+        assert!((n - 5e-6).abs() < 1e-15, "{line}");
+        assert!(
+            (p * v - 101_325.0 * n).abs() < 1e-9 * 101_325.0 * n,
+            "{line}"
+        );
+        assert!(f[6] > 0.0 && f[7] >= 1.0, "{line}");
+    }
+}
+
+#[test]
+fn pockets_csv_has_the_single_bubble_with_the_thesis_model() {
+    let dir = scratch("pockets-csv-thesis");
+    let scene = write_scene(&dir, "pinch.toml", PINCH);
+    let out = dir.join("out");
+    let o = wetcloth(&["run", &scene, "--out", out.to_str().unwrap()], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = fs::read_to_string(out.join("pockets.csv")).unwrap();
+    let metrics = fs::read_to_string(out.join("metrics.csv")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 1 + 11, "one row per frame");
+    for (row, m) in lines[1..].iter().zip(metrics.lines().skip(1)) {
+        let f: Vec<&str> = row.split(',').collect();
+        let g: Vec<&str> = m.split(',').collect();
+        assert_eq!(f[0], g[0]);
+        assert_eq!(f[2], "0", "the thesis' bubble is pocket 0");
+        // Its volume and pressure are metrics.csv's air_volume and air_pressure.
+        assert_eq!(f[3], g[2]);
+        assert_eq!(f[5], g[3]);
+        assert_eq!(f[7], "64");
+    }
+}

@@ -55,7 +55,7 @@ pub(crate) enum AirLoad<'a> {
 pub struct PocketReport {
     /// Id, kept while the pocket persists (the thesis' bubble is pocket 0).
     pub id: u32,
-    /// Volume, m^3.
+    /// Volume, m^3 (for a pocket, [`pockets::Pocket::effective_volume`]: at least a 1 um gap).
     pub volume: Real,
     /// Air, m^3 at atmospheric pressure.
     pub amount: Real,
@@ -159,7 +159,7 @@ impl AirModel {
                 .iter()
                 .map(|q| PocketReport {
                     id: q.id,
-                    volume: q.volume,
+                    volume: q.effective_volume(),
                     amount: q.amount,
                     pressure: if enabled {
                         q.pressure

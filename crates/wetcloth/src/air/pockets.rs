@@ -80,6 +80,16 @@ pub struct Pocket {
     pub rim_open: Real,
 }
 
+impl Pocket {
+    /// The volume Boyle's law uses, m^3: the measured volume, but at least a gap of
+    /// [`MIN_GAP`] over the pocket's area (a pocket pressed flat, or seeded under a cloth lying
+    /// on the surface, still has the weave's thickness of room). `pressure * effective_volume()
+    /// = P_a * amount` exactly.
+    pub fn effective_volume(&self) -> Real {
+        self.volume.max(MIN_GAP * self.area)
+    }
+}
+
 /// The pockets model's state.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pockets {
@@ -189,9 +199,9 @@ impl Pockets {
         p
     }
 
-    /// Total volume of the sealed pockets, m^3.
+    /// Total volume of the sealed pockets ([`Pocket::effective_volume`]), m^3.
     pub fn volume(&self) -> Real {
-        self.pockets.iter().map(|p| p.volume).sum()
+        self.pockets.iter().map(Pocket::effective_volume).sum()
     }
 
     /// Total air in the sealed pockets, m^3 at atmospheric pressure.
@@ -207,7 +217,7 @@ impl Pockets {
         }
         self.pockets
             .iter()
-            .map(|p| p.pressure * p.volume)
+            .map(|p| p.pressure * p.effective_volume())
             .sum::<Real>()
             / v
     }
@@ -475,7 +485,7 @@ impl Pockets {
     fn update_pressures(&mut self, air: &AirParams) {
         let pa = air.atmospheric_pressure;
         for p in &mut self.pockets {
-            p.pressure = pa * p.amount / p.volume.max(MIN_GAP * p.area);
+            p.pressure = pa * p.amount / p.effective_volume();
         }
     }
 
