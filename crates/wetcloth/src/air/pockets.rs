@@ -103,6 +103,12 @@ pub struct Pockets {
     pub particle_pocket: Vec<u32>,
     /// Whether each cell holds air open to the room (its region reaches the border).
     pub cell_open: Vec<bool>,
+    /// Gap volume of each cell, m^3 (cell `(i, j)` at `j * (nx - 1) + i`), measured against
+    /// the sticking plane (eq. 3.10) or, with `surface`, against the nearest collider.
+    pub cell_volume: Vec<Real>,
+    /// Whether volumes are measured against the colliders' own surfaces (any shape, the
+    /// nearest one under each particle) rather than the single sticking plane.
+    pub surface: bool,
     /// Whether each particle touches a collider (within its radius): a sealed particle that
     /// does not is where a rim is close to opening.
     touching: Vec<bool>,
@@ -110,6 +116,8 @@ pub struct Pockets {
     previous_sealed: Vec<bool>,
     /// Whether any particle seals.
     any_sealed: bool,
+    /// Whether the air force acts this step (the air switch).
+    enabled: bool,
     /// Whether `delta_p` holds the water film's pull alone for the current sealing (no pockets),
     /// so that the next step without pockets need not spread again.
     spread_bare: bool,
@@ -143,6 +151,11 @@ struct Scratch {
     root_region: Vec<u32>,
     /// Each particle's distance to the nearest collider surface, m.
     gap: Vec<Real>,
+    /// That surface's outward normal (when measuring against the colliders' surfaces).
+    normal: Vec<crate::math::Vec3>,
+    /// The coasting positions' gaps beyond the contact distance, m, and cell volumes, m^3.
+    coast_gap: Vec<Real>,
+    coast_cells: Vec<Real>,
 }
 
 impl Pockets {
@@ -158,9 +171,12 @@ impl Pockets {
             cell_pocket: vec![NONE; cells],
             particle_pocket: vec![NONE; n],
             cell_open: vec![false; cells],
+            cell_volume: vec![0.0; cells],
+            surface: !(model.colliders.len() == 1 && model.colliders[0].as_plane().is_some()),
             touching: vec![false; n],
             previous_sealed: vec![false; n],
             any_sealed: false,
+            enabled: true,
             spread_bare: false,
             delta_p: vec![0.0; n],
             pending: None,
@@ -175,8 +191,10 @@ impl Pockets {
                 dx * dx + dz * dz <= s.radius * s.radius
             })
         };
-        p.seal(air, model, state, |k, _| seed_of(k).is_none());
-        p.resegment(air, model, measures, true);
+        p.gaps(model, &state.x);
+        p.cell_volumes(model, &state.x, measures);
+        p.seal(air, model, |k, _| seed_of(k).is_none());
+        p.resegment(air, model, true);
         // Seeded regions: their air is the seeds' amount.
         let mut seeded = vec![0.0; p.pockets.len()];
         let mut has_seed = vec![false; p.pockets.len()];
@@ -232,9 +250,16 @@ impl Pockets {
         control: &Control,
         dt: Real,
     ) -> Timing {
+        self.enabled = control.air_enabled;
         let implicit = control.air_enabled
             && air.pressure_solve == PressureSolve::Implicit
             && !self.pockets.is_empty();
+        if !control.air_enabled {
+            // The air switch turns off both pressures: the pockets' and the water film's.
+            self.pending = None;
+            self.spread_bare = false;
+            return Timing::Now;
+        }
         if implicit {
             self.pending = Some(Pending {
                 dt,
@@ -266,7 +291,7 @@ impl Pockets {
 
     /// The load of the step: each particle's pressure difference.
     pub(crate) fn load(&self) -> AirLoad<'_> {
-        if self.pockets.is_empty() && !self.any_sealed {
+        if !self.enabled || (self.pockets.is_empty() && !self.any_sealed) {
             AirLoad::Uniform(0.0)
         } else {
             AirLoad::PerParticle(&self.delta_p)
@@ -286,23 +311,48 @@ impl Pockets {
         let Some(pending) = self.pending.take() else {
             return;
         };
-        let Some(plane) = model.sticking else {
+        // The coasting positions' gaps (m, beyond the contact distance) and cell volumes.
+        let m = model.grid.nx - 1;
+        let mut coast_gap = std::mem::take(&mut self.scratch.coast_gap);
+        let mut coast_cells = std::mem::take(&mut self.scratch.coast_cells);
+        coast_gap.clear();
+        coast_cells.clear();
+        if self.surface {
+            self.gaps(model, coast);
+            coast_cells.resize(self.cell_volume.len(), 0.0);
+            surface_cell_volumes(
+                &model.grid,
+                coast,
+                &self.scratch.gap,
+                &self.scratch.normal,
+                model.radius,
+                &mut coast_cells,
+            );
+            coast_gap.extend(self.scratch.gap.iter().map(|g| g - model.radius));
+        } else if let Some(plane) = model.sticking {
+            let up = plane.up;
+            let contact = up.dot(plane.point) + model.radius;
+            coast_gap.extend(
+                (0..coast.len())
+                    .map(|i| up.x * coast.x[i] + up.y * coast.y[i] + up.z * coast.z[i] - contact),
+            );
+            coast_cells.extend((0..self.cell_volume.len()).map(|c| coast_measures.cells[c]));
+        } else {
+            self.scratch.coast_gap = coast_gap;
+            self.scratch.coast_cells = coast_cells;
             return;
-        };
+        }
+        let gap = |i: usize| coast_gap[i];
         let pa = air.atmospheric_pressure;
         let s = model.area_per_particle;
-        let up = plane.up;
-        let contact = up.dot(plane.point) + model.radius;
-        let gap = |i: usize| up.x * coast.x[i] + up.y * coast.y[i] + up.z * coast.z[i] - contact;
         let first = if pending.first_step { 0.5 } else { 1.0 };
         let h_of = |i: usize| pending.dt * pending.dt / model.mass(i) * first;
-        let m = model.grid.nx - 1;
         // Each pocket's coasting volume: its cells', plus the depth of its particles coasting
         // into the surface (the contact pushes them back out).
         let mut base = vec![0.0; self.pockets.len()];
         for (c, &q) in self.cell_pocket.iter().enumerate() {
             if q != NONE {
-                base[q as usize] += coast_measures.cells[(c / m) * m + c % m];
+                base[q as usize] += coast_cells[(c / m) * m + c % m];
             }
         }
         for (i, &q) in self.particle_pocket.iter().enumerate() {
@@ -311,13 +361,19 @@ impl Pockets {
                 base[q as usize] -= s * g;
             }
         }
+        // Each pocket's free particles, in index order.
+        let mut members: Vec<Vec<usize>> = vec![Vec::new(); self.pockets.len()];
+        for (i, &q) in self.particle_pocket.iter().enumerate() {
+            if q != NONE && !held[i] {
+                members[q as usize].push(i);
+            }
+        }
         let mut pressures = Vec::with_capacity(self.pockets.len());
         for (q, pocket) in self.pockets.iter().enumerate() {
             let k = pa * pocket.amount;
-            let members = |i: &usize| self.particle_pocket[*i] == q as u32 && !held[*i];
             let volume = |p: Real| {
                 let (mut v, mut slope) = (base[q], 0.0);
-                for i in (0..coast.len()).filter(members) {
+                for &i in &members[q] {
                     let h = h_of(i);
                     let push = h * s * (p - pa);
                     let g = gap(i).max(0.0);
@@ -337,6 +393,8 @@ impl Pockets {
             };
             pressures.push(p - pa);
         }
+        self.scratch.coast_gap = coast_gap;
+        self.scratch.coast_cells = coast_cells;
         self.spread(model, &pressures);
     }
 
@@ -391,7 +449,9 @@ impl Pockets {
     ) {
         let pa = air.atmospheric_pressure;
         // New volumes of the old pockets, then their leaks over the step.
-        self.measure_volumes(model, measures);
+        self.gaps(model, &state.x);
+        self.cell_volumes(model, &state.x, measures);
+        self.measure_volumes();
         for pocket in &mut self.pockets {
             let floor = MIN_GAP * pocket.area;
             let v = pocket.volume.max(floor);
@@ -412,11 +472,11 @@ impl Pockets {
         if self.pockets.iter().any(|p| p.pressure > pa) {
             let pushing: Vec<bool> = self.pockets.iter().map(|p| p.pressure > pa).collect();
             let old_pocket = self.particle_pocket.clone();
-            self.seal(air, model, state, |k, touching| {
+            self.seal(air, model, |k, touching| {
                 touching || old_pocket[k] == NONE || !pushing[old_pocket[k] as usize]
             });
         } else {
-            self.seal(air, model, state, |_, _| true);
+            self.seal(air, model, |_, _| true);
         }
         if self.sealed == self.previous_sealed {
             // The same sealed particles: the same regions and pockets, with their air (their
@@ -424,41 +484,72 @@ impl Pockets {
             self.measure_rims(&model.grid);
         } else {
             self.spread_bare = false;
-            self.resegment(air, model, measures, false);
+            self.resegment(air, model, false);
         }
         self.update_pressures(air);
     }
 
-    /// Marks the particles that seal in `state`: wet enough and within `seal_distance` beyond
-    /// their radius of a collider's surface, where `may_seal(k, touching)` allows (`touching`:
-    /// within the radius itself).
-    fn seal(
-        &mut self,
-        air: &AirParams,
-        model: &Model,
-        state: &State,
-        may_seal: impl Fn(usize, bool) -> bool,
-    ) {
-        let reach = model.radius + air.seal_distance;
-        // Each particle's distance to the nearest collider surface, collider by collider (a
-        // plane's is a vectorised dot product).
-        let gap = &mut self.scratch.gap;
-        gap.clear();
-        gap.resize(state.len(), Real::INFINITY);
-        let x = &state.x;
+    /// Each particle's distance from `x` to the nearest collider surface (m, in the scratch's
+    /// `gap`) and, when measuring against the colliders' surfaces, that surface's outward
+    /// normal (`normal`). A plane's distance is a vectorised dot product.
+    fn gaps(&mut self, model: &Model, x: &Soa) {
+        let n = x.len();
+        let sc = &mut self.scratch;
+        sc.gap.clear();
+        sc.gap.resize(n, Real::INFINITY);
+        if self.surface {
+            sc.normal.clear();
+            sc.normal.resize(n, crate::math::Vec3::Y);
+            for c in &model.colliders {
+                for k in 0..n {
+                    let (d, normal) = c.distance(x.get(k));
+                    if d < sc.gap[k] {
+                        sc.gap[k] = d;
+                        sc.normal[k] = normal;
+                    }
+                }
+            }
+            return;
+        }
         for c in &model.colliders {
             if let crate::collide::Shape::Plane(plane) = &c.shape {
-                let (n, o) = (plane.normal, plane.normal.dot(plane.point));
-                for (k, g) in gap.iter_mut().enumerate() {
-                    *g = g.min(n.x * x.x[k] + n.y * x.y[k] + n.z * x.z[k] - o);
+                let (nv, o) = (plane.normal, plane.normal.dot(plane.point));
+                for (k, g) in sc.gap.iter_mut().enumerate() {
+                    *g = g.min(nv.x * x.x[k] + nv.y * x.y[k] + nv.z * x.z[k] - o);
                 }
             } else {
-                for (k, g) in gap.iter_mut().enumerate() {
+                for (k, g) in sc.gap.iter_mut().enumerate() {
                     *g = g.min(c.distance(x.get(k)).0);
                 }
             }
         }
-        for k in 0..state.len() {
+    }
+
+    /// The gap volume of every cell at `x` (whose gaps [`Pockets::gaps`] found): the fused
+    /// pass's eq. 3.10 against the sticking plane from `measures`, or against the colliders'
+    /// surfaces.
+    fn cell_volumes(&mut self, model: &Model, x: &Soa, measures: &Measures) {
+        if self.surface {
+            surface_cell_volumes(
+                &model.grid,
+                x,
+                &self.scratch.gap,
+                &self.scratch.normal,
+                model.radius,
+                &mut self.cell_volume,
+            );
+        } else {
+            let cells = self.cell_volume.len();
+            self.cell_volume.copy_from_slice(&measures.cells[..cells]);
+        }
+    }
+
+    /// Marks the particles that seal (from the gaps of [`Pockets::gaps`]): wet enough and
+    /// within `seal_distance` beyond their radius of a collider's surface, where
+    /// `may_seal(k, touching)` allows (`touching`: within the radius itself).
+    fn seal(&mut self, air: &AirParams, model: &Model, may_seal: impl Fn(usize, bool) -> bool) {
+        let reach = model.radius + air.seal_distance;
+        for k in 0..self.sealed.len() {
             let gap = self.scratch.gap[k];
             self.touching[k] = gap <= model.radius;
             self.sealed[k] = model.wetness[k] >= air.seal_wetness
@@ -468,15 +559,14 @@ impl Pockets {
         self.any_sealed = self.sealed.iter().any(|&s| s);
     }
 
-    /// The volumes of the current pockets' cells in `measures`, and their rims' open length.
-    fn measure_volumes(&mut self, model: &Model, measures: &Measures) {
-        let m = model.grid.nx - 1;
+    /// The volumes of the current pockets, from their cells'.
+    fn measure_volumes(&mut self) {
         for p in &mut self.pockets {
             p.volume = 0.0;
         }
         for (c, &q) in self.cell_pocket.iter().enumerate() {
             if q != NONE {
-                self.pockets[q as usize].volume += measures.cells[(c / m) * m + c % m];
+                self.pockets[q as usize].volume += self.cell_volume[c];
             }
         }
     }
@@ -491,7 +581,7 @@ impl Pockets {
 
     /// Finds the regions of the sealed state, and the new pockets with their air (see the
     /// module docs). `fresh`: at t = 0, every pocket takes the air it encloses.
-    fn resegment(&mut self, air: &AirParams, model: &Model, measures: &Measures, fresh: bool) {
+    fn resegment(&mut self, air: &AirParams, model: &Model, fresh: bool) {
         let grid = &model.grid;
         let (nx, nz) = (grid.nx, grid.nz);
         let m = nx - 1;
@@ -583,7 +673,7 @@ impl Pockets {
                 continue;
             }
             let (i, j) = (c % m, c / m);
-            volume[r as usize] += measures.cells[j * m + i];
+            volume[r as usize] += self.cell_volume[j * m + i];
             count[r as usize] += 1;
             let k = j * nx + i;
             kappa[r as usize] += 0.25
@@ -596,7 +686,7 @@ impl Pockets {
         let mut old_cells = vec![0u32; self.pockets.len()];
         for c in 0..cells {
             let (r, old) = (sc.region[c], self.cell_pocket[c]);
-            let v = measures.cells[c];
+            let v = self.cell_volume[c];
             if r == NONE {
                 // The cell closed (sealed all round): its air is squeezed into the rest of
                 // its pocket, so it takes no share.
@@ -765,5 +855,147 @@ impl Pockets {
                 }
             }
         }
+    }
+}
+
+/// The gap volume of each cell of `grid` at `x` against the colliders' surfaces, m^3, into
+/// `out` (cell `(i, j)` at `j * (nx - 1) + i`), generalising eq. 3.10. Each of the cell's two
+/// triangles is projected onto the contact surface (each corner moved by its height above
+/// contact, `gap - radius`, along the surface's normal there), and the solid between the
+/// triangle and its footprint is taken as a frustum: `h / 3 (A_t + A_b + sqrt(A_t A_b))`, `h`
+/// the corners' mean height and `A_t`, `A_b` the triangle's and the footprint's areas projected
+/// on their mean normal. On a plane the footprint has the triangle's projected area and this
+/// is eq. 3.10's prism exactly; over a sphere, with the corners at one height, it is the
+/// radial shell `Omega / 3 ((R + h)^3 - R^3)` of the footprint's cone up to the flat
+/// triangles' sagitta, a relative error of order `(cell / R)^2`.
+pub fn surface_cell_volumes(
+    grid: &crate::model::Grid,
+    x: &Soa,
+    gap: &[Real],
+    normal: &[crate::math::Vec3],
+    radius: Real,
+    out: &mut [Real],
+) {
+    let (nx, m) = (grid.nx, grid.nx - 1);
+    let frustum = |a: usize, b: usize, c: usize| {
+        let (ha, hb, hc) = (gap[a] - radius, gap[b] - radius, gap[c] - radius);
+        let (na, nb, nc) = (normal[a], normal[b], normal[c]);
+        let (pa, pb, pc) = (x.get(a), x.get(b), x.get(c));
+        let (qa, qb, qc) = (pa - na * ha, pb - nb * hb, pc - nc * hc);
+        let n = (na + nb + nc).normalize_or_zero();
+        let top = 0.5 * (pb - pa).cross(pc - pa).dot(n);
+        let bottom = 0.5 * (qb - qa).cross(qc - qa).dot(n);
+        let mean = if top * bottom > 0.0 {
+            top.signum() * (top * bottom).sqrt()
+        } else {
+            0.0
+        };
+        (ha + hb + hc) / 3.0 * (top + bottom + mean) / 3.0
+    };
+    for (c, v) in out.iter_mut().enumerate() {
+        let (i, j) = (c % m, c / m);
+        let a = j * nx + i;
+        let (b, cc, d) = (a + 1, a + nx, a + nx + 1);
+        // Counter-clockwise seen from above (+y for a cloth lying in x-z): (a, d, b), (a, c, d).
+        *v = frustum(a, d, b) + frustum(a, cc, d);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+    use crate::model::Grid;
+
+    /// Solid angle of the flat triangle (a, b, c) seen from the origin (Van Oosterom and
+    /// Strackee), sr.
+    fn solid_angle(a: Vec3, b: Vec3, c: Vec3) -> Real {
+        let (la, lb, lc) = (a.length(), b.length(), c.length());
+        let num = a.dot(b.cross(c));
+        let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+        2.0 * num.atan2(den)
+    }
+
+    /// A cloth patch at one height `h` over a sphere of radius `big_r` (its particles of radius
+    /// `r` touching at `big_r + r`): the cells' volumes add up to the radial shell
+    /// `Omega / 3 ((R' + h)^3 - R'^3)`, `R' = big_r + r` and `Omega` the patch's solid angle.
+    /// The flat triangles cut the sphere's cap by their sagitta: for cells of angular size
+    /// `theta` the relative error is of order `theta^2`, below `theta^2` here.
+    #[test]
+    fn volume_over_a_sphere_is_the_radial_shell() {
+        let (big_r, r, h) = (0.1, 0.001, 0.004);
+        for n in [9, 17, 33] {
+            let grid = Grid {
+                nx: n,
+                nz: n,
+                dx: 1.0,
+                dz: 1.0,
+            };
+            let half = 0.5; // the patch spans tan(angle) in [-0.5, 0.5] both ways
+            let dir = |i: usize, j: usize| {
+                let u = -half + 2.0 * half * i as Real / (n - 1) as Real;
+                let v = -half + 2.0 * half * j as Real / (n - 1) as Real;
+                Vec3::new(u, 1.0, v).normalize()
+            };
+            let top = big_r + r + h;
+            let mut pts = Vec::new();
+            let mut normal = Vec::new();
+            let mut gap = Vec::new();
+            for j in 0..n {
+                for i in 0..n {
+                    pts.push(dir(i, j) * top);
+                    normal.push(dir(i, j));
+                    gap.push(top - big_r);
+                }
+            }
+            let x = Soa::from_vec3(&pts);
+            let mut cells = vec![0.0; (n - 1) * (n - 1)];
+            surface_cell_volumes(&grid, &x, &gap, &normal, r, &mut cells);
+            let volume: Real = cells.iter().sum();
+            let mut omega = 0.0;
+            for j in 0..n - 1 {
+                for i in 0..n - 1 {
+                    let (a, b, c, d) = (dir(i, j), dir(i + 1, j), dir(i, j + 1), dir(i + 1, j + 1));
+                    omega += solid_angle(a, d, b).abs() + solid_angle(a, c, d).abs();
+                }
+            }
+            let rp = big_r + r;
+            let shell = omega / 3.0 * ((rp + h).powi(3) - rp.powi(3));
+            let theta = (2.0 * half).atan() / (n - 1) as Real;
+            let error = (volume - shell).abs() / shell;
+            assert!(
+                error < theta * theta,
+                "{n}: {volume} m^3 against the shell's {shell} ({error:.2e}, bound {:.2e})",
+                theta * theta
+            );
+        }
+    }
+
+    /// On a plane the frustum is eq. 3.10's prism: a tilted, uneven triangle's volume is its
+    /// projected area times its mean height.
+    #[test]
+    fn volume_over_a_plane_is_the_prism() {
+        let grid = Grid {
+            nx: 2,
+            nz: 2,
+            dx: 1.0,
+            dz: 1.0,
+        };
+        let pts = [
+            Vec3::new(0.0, 0.003, 0.0),
+            Vec3::new(0.01, 0.005, 0.001),
+            Vec3::new(-0.001, 0.002, 0.012),
+            Vec3::new(0.011, 0.004, 0.01),
+        ];
+        let x = Soa::from_vec3(&pts);
+        let gap: Vec<Real> = pts.iter().map(|p| p.y).collect();
+        let r = 0.0005;
+        let mut v = [0.0];
+        surface_cell_volumes(&grid, &x, &gap, &[Vec3::Y; 4], r, &mut v);
+        let prism = |a: Vec3, b: Vec3, c: Vec3| {
+            0.5 * (b - a).cross(c - a).y * ((a.y + b.y + c.y) / 3.0 - r)
+        };
+        let expect = prism(pts[0], pts[3], pts[1]) + prism(pts[0], pts[2], pts[3]);
+        assert!((v[0] - expect).abs() < 1e-15, "{} against {expect}", v[0]);
     }
 }

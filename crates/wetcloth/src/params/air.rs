@@ -5,7 +5,8 @@ use crate::math::Real;
 /// The trapped air (`[air]` in a scene file), thesis 3.4.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AirParams {
-    /// Whether the pressure force acts (the demo's button 1). Default true.
+    /// Whether the pressure force acts (the demo's button 1); with the pockets model, the water
+    /// film's pull (`[cloth] wet_adhesion`) too. Default true.
     pub enabled: bool,
     /// Atmospheric pressure P_a, Pa. Default 101325; range [0, 1e7].
     pub atmospheric_pressure: Real,

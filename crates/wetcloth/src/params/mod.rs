@@ -192,11 +192,12 @@ impl SimConfig {
                     .into(),
             });
         }
-        if a.enabled && self.sticking_plane().is_none() {
+        if a.enabled && a.model == AirModelKind::Thesis && self.sticking_plane().is_none() {
             return Err(ConfigError::Invalid {
                 key: "air.enabled".into(),
-                message: "the air force needs a plane collider as its sticking surface; add a \
-                          [[collider]] with shape = \"plane\" or set [air] enabled = false"
+                message: "the thesis' air model needs a plane collider as its sticking surface; \
+                          add a [[collider]] with shape = \"plane\", set [air] model = \
+                          \"pockets\" (air against any collider) or set [air] enabled = false"
                     .into(),
             });
         }
