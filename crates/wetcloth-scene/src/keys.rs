@@ -48,11 +48,19 @@ pub const COLLIDER: &[&str] = &[
     "radius",
     "half_extents",
     "friction",
+    "file",
+    "position",
+    "rotation",
+    "scale",
+    "sticky",
+    "keys",
 ];
 /// Keys of a `[[grab]]`.
 pub const GRAB: &[&str] = &["particle", "keys"];
 /// Keys of one grab key (`keys = [{ time = ..., offset = [...] }]`).
 pub const GRAB_KEY: &[&str] = &["time", "offset"];
+/// Keys of one collider key (`keys = [{ time = ..., offset = [...], rotation = [...] }]`).
+pub const COLLIDER_KEY: &[&str] = &["time", "offset", "rotation"];
 
 /// Where a table sits in the format, for its list of valid keys.
 #[derive(Clone, Copy)]
@@ -64,6 +72,7 @@ enum Place {
     Collider,
     Grab,
     GrabKey,
+    ColliderKey,
 }
 
 impl Place {
@@ -76,6 +85,7 @@ impl Place {
             Place::Collider => COLLIDER,
             Place::Grab => GRAB,
             Place::GrabKey => GRAB_KEY,
+            Place::ColliderKey => COLLIDER_KEY,
         }
     }
 
@@ -88,6 +98,7 @@ impl Place {
             (Place::Top, "collider") => Some(Place::Collider),
             (Place::Top, "grab") => Some(Place::Grab),
             (Place::Grab, "keys") => Some(Place::GrabKey),
+            (Place::Collider, "keys") => Some(Place::ColliderKey),
             _ => None,
         }
     }
@@ -101,11 +112,12 @@ impl Place {
             Place::Collider => "collider[].",
             Place::Grab => "grab[].",
             Place::GrabKey => "grab[].keys[].",
+            Place::ColliderKey => "collider[].keys[].",
         }
     }
 }
 
-const ALL_PLACES: [Place; 7] = [
+const ALL_PLACES: [Place; 8] = [
     Place::Top,
     Place::Simulation,
     Place::Cloth,
@@ -113,6 +125,7 @@ const ALL_PLACES: [Place; 7] = [
     Place::Collider,
     Place::Grab,
     Place::GrabKey,
+    Place::ColliderKey,
 ];
 
 /// An unknown key found in a document.
