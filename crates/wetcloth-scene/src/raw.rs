@@ -629,9 +629,13 @@ fn collider(
                 missing("file", "\"path/to/mesh.obj\" (relative to the scene file)")
             })?;
             let mesh = load_mesh(cx, &key("file"), &file)?;
+            // The collider names its file by the absolute path it was read from, so the
+            // resolved scene a run writes (`to_toml`) reads the same mesh from any folder.
+            let path = mesh_path(cx, file.get_ref());
+            let named = std::path::absolute(&path).unwrap_or(path);
             Shape::Mesh(
                 Mesh::new(
-                    file.get_ref().clone(),
+                    named.display().to_string(),
                     mesh.vertices,
                     mesh.triangles,
                     v(c.position).unwrap_or(Vec3::ZERO),

@@ -80,7 +80,8 @@ pub enum MeshError {
     serde(try_from = "MeshRepr", into = "MeshRepr")
 )]
 pub struct Mesh {
-    /// The mesh file as the scene names it (relative to the scene file), for descriptions.
+    /// The mesh file it was read from, for descriptions (the scene reader gives the absolute
+    /// path; the core reads no files).
     pub file: String,
     /// Where the model's origin goes, m. Default (0, 0, 0); each component in [-1e6, 1e6].
     pub position: Vec3,
