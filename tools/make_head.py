@@ -1,6 +1,6 @@
 """Generates the demo meshes in meshes/: a stylised head, procedurally, with no dependencies.
 
-    python3 tools/make_head.py [OUT_DIR]          (default: meshes/ next to this folder)
+    python3 tools/make_head.py [--level N] [OUT_DIR]   (default: level 4, meshes/ beside tools/)
 
 The head is a star-shaped closed surface: an icosphere (the icosahedron with each triangle split
 into four, `level` times) whose vertices are pushed out along their direction to the radius
@@ -12,9 +12,8 @@ Y is up, the face looks along +Z, the origin is the bottom of the chin's ellipso
 stands on y = 0. Units: metres.
 
 Writes:
-- head.obj: level 4, 2562 vertices, 5120 triangles (the demo scenes);
-- head-20k.obj: level 5, 10242 vertices, 20480 triangles (the speed measurement in
-  docs/performance.md);
+- head.obj: level 4, 2562 vertices, 5120 triangles (the demo scenes; `python3
+  tools/make_head.py --level 5` writes a 20480-triangle head-level5.obj instead);
 - plate.obj: a flat 50 cm square in the plane y = 0, 8 x 8 quads (128 triangles), facing +Y:
   an open mesh (a sheet), tilted by the scenes that use it.
 
@@ -132,9 +131,16 @@ def plate(n=8, side=0.5):
 
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
-    out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "..", "meshes")
+    args = sys.argv[1:]
+    level = 4
+    if "--level" in args:
+        i = args.index("--level")
+        level = int(args[i + 1])
+        del args[i : i + 2]
+    out = args[0] if args else os.path.join(here, "..", "meshes")
     os.makedirs(out, exist_ok=True)
-    for level, name in [(4, "head.obj"), (5, "head-20k.obj")]:
+    name = "head.obj" if level == 4 else f"head-level{level}.obj"
+    for level, name in [(level, name)]:
         points, faces = head(level)
         write_obj(os.path.join(out, name), points, faces, f"wetcloth demo head, icosphere level {level}")
         print(f"{name}: {len(points)} vertices, {len(faces)} triangles")
