@@ -419,3 +419,44 @@ fn open_mesh_stops_particles_on_both_sides() {
         assert!((x.y - side * r).abs() < 1e-15, "{side}: {x}");
     }
 }
+
+/// Keys move and turn any shape about its own centre, linearly between keys: a box turned 45
+/// degrees about y presents an edge along x at `h sqrt 2` from its centre, and halfway (22.5
+/// degrees, half the offset) a face whose normal is turned by 22.5 degrees.
+#[test]
+fn keys_move_and_turn_a_box_about_its_centre() {
+    let mut b = Collider::cuboid(Vec3::new(1.0, 0.0, 0.0), Vec3::splat(0.5), 0.5);
+    b.keys = vec![
+        Key {
+            time: 0.0,
+            offset: Vec3::ZERO,
+            rotation: Vec3::ZERO,
+        },
+        Key {
+            time: 1.0,
+            offset: Vec3::new(0.0, 1.0, 0.0),
+            rotation: Vec3::new(0.0, 45.0, 0.0),
+        },
+    ];
+    let end = b.at(1.0);
+    let (d, n) = end.distance(Vec3::new(2.0, 1.0, 0.0));
+    assert!((d - (1.0 - 0.5 * 2f64.sqrt())).abs() < 1e-12, "{d}");
+    assert!((n - Vec3::X).length() < 1e-12, "{n}");
+    // Held after the last key.
+    assert_eq!(b.at(5.0).distance(Vec3::new(2.0, 1.0, 0.0)), (d, n));
+    let half = b.at(0.5);
+    let turn = 22.5f64.to_radians();
+    let face = Vec3::new(turn.cos(), 0.0, -turn.sin());
+    let (d, n) = half.distance(Vec3::new(1.0, 0.5, 0.0) + face * 0.7);
+    assert!(
+        (d - 0.2).abs() < 1e-12 && (n - face).length() < 1e-12,
+        "{d} {n}"
+    );
+    // What a renderer draws moves with it: every vertex of the drawn box lies on the surface.
+    let wetcloth::Surface::Mesh(m) = half.surface() else {
+        panic!("a box draws as a mesh")
+    };
+    for p in &m.positions {
+        assert!(half.distance(*p).0.abs() < 1e-12);
+    }
+}

@@ -557,6 +557,76 @@ mod tests {
         }
     }
 
+    /// A mesh collider is written with its model's triangles and points, placed by its
+    /// position, rotation and scale; a moving collider's keys become time samples at
+    /// `time * fps` of its pivot plus offset and its rotation plus the key's.
+    #[test]
+    fn mesh_colliders_carry_their_triangles_and_motion() {
+        use wetcloth::Vec3;
+        use wetcloth::collide::{Key, Mesh};
+        let v = vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::Y];
+        let f = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        let mesh = Mesh::new(
+            "/m/tetra.obj",
+            v,
+            f,
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(0.0, 90.0, 0.0),
+            0.5,
+        )
+        .unwrap();
+        let mut c = Collider::mesh(mesh, 0.4);
+        c.keys = vec![
+            Key {
+                time: 0.5,
+                offset: Vec3::ZERO,
+                rotation: Vec3::ZERO,
+            },
+            Key {
+                time: 1.0,
+                offset: Vec3::new(0.0, -0.1, 0.0),
+                rotation: Vec3::new(0.0, 0.0, 30.0),
+            },
+        ];
+        let p = collider_prim(2, &c, 0.3, 60.0);
+        assert_eq!((p.name.as_str(), p.type_name), ("mesh_2", "Mesh"));
+        let attr = |name: &str| {
+            &p.attrs
+                .iter()
+                .find(|a| a.name == name)
+                .unwrap_or_else(|| panic!("no {name}"))
+                .data
+        };
+        let Data::Default(Value::Ints(counts)) = attr("faceVertexCounts") else {
+            panic!("counts")
+        };
+        assert_eq!(counts, &vec![3; 4]);
+        let Data::Default(Value::Ints(indices)) = attr("faceVertexIndices") else {
+            panic!("indices")
+        };
+        assert_eq!(indices[..6], [0, 2, 1, 0, 1, 3]);
+        let Data::Default(Value::Float3s(points)) = attr("points") else {
+            panic!("points")
+        };
+        assert_eq!(points[3], [0.0, 1.0, 0.0]);
+        let Data::Samples(t) = attr("xformOp:translate") else {
+            panic!("translate samples")
+        };
+        assert_eq!(t.len(), 2);
+        assert_eq!(t[0], (30.0, Value::DoubleTuple(vec![1.0, 2.0, 3.0])));
+        let Data::Samples(r) = attr("xformOp:rotateXYZ") else {
+            panic!("rotate samples")
+        };
+        assert_eq!(r[1], (60.0, Value::DoubleTuple(vec![0.0, 90.0, 30.0])));
+        let Data::Default(Value::DoubleTuple(scale)) = attr("xformOp:scale") else {
+            panic!("scale")
+        };
+        assert_eq!(scale, &vec![0.5; 3]);
+        // A still sphere keeps its fixed translate and no rotation.
+        let p = collider_prim(0, &Collider::sphere(Vec3::X, 0.1, 0.5), 0.3, 60.0);
+        assert!(p.attrs.iter().all(|a| a.name != "xformOp:rotateXYZ"));
+    }
+
     #[test]
     fn xform_ops_are_listed_in_order_and_keys_become_time_samples() {
         let mut p = Prim::new("m", "Mesh");

@@ -124,12 +124,15 @@ pub fn resolve_moving(
 }
 
 /// Pushes `x` out of every collider along the normal only (after position corrections such as
-/// self-collision, which must not leave a particle inside a collider).
+/// self-collision, which must not leave a particle inside a collider). A mesh is searched only
+/// within `radius` of `x`: the corrections start from particles outside every collider and
+/// move them by less than that.
 #[inline]
 pub fn project(colliders: &[Collider], mut x: Vec3, radius: Real) -> Vec3 {
     for c in colliders {
-        let (d, n) = c.distance(x);
-        if d < radius {
+        if let Some((d, n)) = c.distance_within(x, radius)
+            && d < radius
+        {
             x += n * (radius - d);
         }
     }

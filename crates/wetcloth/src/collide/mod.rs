@@ -236,6 +236,20 @@ impl Collider {
         }
     }
 
+    /// [`Collider::distance`] where the surface is within `reach` (m) of `p`; `None` when it is
+    /// certainly farther (only a mesh answers `None`, sparing the full closest-point search).
+    #[inline]
+    pub fn distance_within(&self, p: Vec3, reach: Real) -> Option<(Real, Vec3)> {
+        match &self.placement {
+            None => self.rest_contact(p, p, reach),
+            Some(at) => {
+                let q = at.to_rest(p);
+                let (d, n) = self.rest_contact(q, q, reach)?;
+                Some((d, at.dir_to_world(n)))
+            }
+        }
+    }
+
     /// [`Collider::distance`] of the shape where the scene puts it.
     #[inline]
     pub fn rest_distance(&self, p: Vec3) -> (Real, Vec3) {
