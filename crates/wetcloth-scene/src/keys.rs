@@ -63,11 +63,19 @@ pub const COLLIDER: &[&str] = &[
     "radius",
     "half_extents",
     "friction",
+    "file",
+    "position",
+    "rotation",
+    "scale",
+    "sticky",
+    "keys",
 ];
 /// Keys of a `[[grab]]`.
 pub const GRAB: &[&str] = &["particle", "keys"];
 /// Keys of one grab key (`keys = [{ time = ..., offset = [...] }]`).
 pub const GRAB_KEY: &[&str] = &["time", "offset"];
+/// Keys of one collider key (`keys = [{ time = ..., offset = [...], rotation = [...] }]`).
+pub const COLLIDER_KEY: &[&str] = &["time", "offset", "rotation"];
 
 /// Where a table sits in the format, for its list of valid keys.
 #[derive(Clone, Copy)]
@@ -81,6 +89,7 @@ enum Place {
     GrabKey,
     Paint,
     Pocket,
+    ColliderKey,
 }
 
 impl Place {
@@ -95,6 +104,7 @@ impl Place {
             Place::GrabKey => GRAB_KEY,
             Place::Paint => PAINT,
             Place::Pocket => POCKET,
+            Place::ColliderKey => COLLIDER_KEY,
         }
     }
 
@@ -109,6 +119,7 @@ impl Place {
             (Place::Grab, "keys") => Some(Place::GrabKey),
             (Place::Cloth, "paint") => Some(Place::Paint),
             (Place::Air, "pocket") => Some(Place::Pocket),
+            (Place::Collider, "keys") => Some(Place::ColliderKey),
             _ => None,
         }
     }
@@ -124,11 +135,12 @@ impl Place {
             Place::GrabKey => "grab[].keys[].",
             Place::Paint => "cloth.paint[].",
             Place::Pocket => "air.pocket[].",
+            Place::ColliderKey => "collider[].keys[].",
         }
     }
 }
 
-const ALL_PLACES: [Place; 9] = [
+const ALL_PLACES: [Place; 10] = [
     Place::Top,
     Place::Simulation,
     Place::Cloth,
@@ -138,6 +150,7 @@ const ALL_PLACES: [Place; 9] = [
     Place::GrabKey,
     Place::Paint,
     Place::Pocket,
+    Place::ColliderKey,
 ];
 
 /// An unknown key found in a document.

@@ -24,6 +24,7 @@
 
 mod error;
 mod keys;
+pub mod obj;
 mod raw;
 mod start;
 mod write;
@@ -95,6 +96,7 @@ impl Scene {
             wetcloth::Shape::Plane(_) => &["point", "normal"],
             wetcloth::Shape::Sphere(_) => &["center", "radius"],
             wetcloth::Shape::Box(_) => &["center", "half_extents"],
+            wetcloth::Shape::Mesh(_) => &["position", "rotation", "scale", "file"],
         };
         Err(match &self.source {
             Some((file, text)) => {

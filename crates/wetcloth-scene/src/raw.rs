@@ -7,7 +7,7 @@ use serde::Deserialize;
 use std::ops::Range;
 use toml::Spanned;
 use toml::de::DeTable;
-use wetcloth::collide::{Cuboid, Plane, Sphere};
+use wetcloth::collide::{Cuboid, Key, Mesh, Plane, Sphere};
 use wetcloth::{
     AirModelKind, AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator,
     PaintShape, PocketSeed, PressureForce, PressureSolve, Real, Shape, SimConfig, SimulationParams,
@@ -114,7 +114,21 @@ struct RawCollider {
     center: Option<Spanned<Arr<Real, 3>>>,
     radius: Option<Spanned<Real>>,
     half_extents: Option<Spanned<Arr<Real, 3>>>,
+    file: Option<Spanned<String>>,
+    position: Option<Spanned<Arr<Real, 3>>>,
+    rotation: Option<Spanned<Arr<Real, 3>>>,
+    scale: Option<Spanned<Real>>,
     friction: Option<Real>,
+    sticky: Option<bool>,
+    keys: Option<Vec<RawColliderKey>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawColliderKey {
+    time: Real,
+    offset: Option<Arr<Real, 3>>,
+    rotation: Option<Arr<Real, 3>>,
 }
 
 #[derive(Deserialize)]
@@ -141,7 +155,7 @@ pub fn default_ground() -> Collider {
 }
 
 /// The collider shapes a scene may name.
-pub const SHAPES: [&str; 3] = ["plane", "sphere", "box"];
+pub const SHAPES: [&str; 4] = ["plane", "sphere", "box", "mesh"];
 
 /// Context for building errors that point into the text.
 struct Ctx<'a> {
@@ -291,7 +305,7 @@ fn serde_error(cx: &Ctx<'_>, doc: &Spanned<DeTable<'_>>, e: &toml::de::Error) ->
 
 fn missing_help(field: &str) -> &'static str {
     match field {
-        "shape" => "every [[collider]] needs shape = \"plane\", \"sphere\" or \"box\"",
+        "shape" => "every [[collider]] needs shape = \"plane\", \"sphere\", \"box\" or \"mesh\"",
         "particle" => "every [[grab]] needs particle = [column, row] (0-based grid index)",
         "keys" => "every [[grab]] needs keys = [{ time = ..., offset = [x, y, z] }, ...]",
         "time" => "every grab key needs time = ... (s)",
@@ -609,6 +623,7 @@ fn collider(
         "plane" => &["point", "normal"],
         "sphere" => &["center", "radius"],
         "box" => &["center", "half_extents"],
+        "mesh" => &["file", "position", "rotation", "scale"],
         _ => {
             return Err(SceneError::Invalid {
                 at: cx.at(c.shape.span()),
@@ -628,6 +643,10 @@ fn collider(
         ("center", c.center.as_ref().map(|s| s.span())),
         ("radius", c.radius.as_ref().map(|s| s.span())),
         ("half_extents", c.half_extents.as_ref().map(|s| s.span())),
+        ("file", c.file.as_ref().map(|s| s.span())),
+        ("position", c.position.as_ref().map(|s| s.span())),
+        ("rotation", c.rotation.as_ref().map(|s| s.span())),
+        ("scale", c.scale.as_ref().map(|s| s.span())),
     ];
     for (name, span) in given {
         if let Some(span) = span
@@ -639,7 +658,8 @@ fn collider(
                 key: key(name),
                 value: cx.raw(&span),
                 message: format!(
-                    "a {shape_name} collider has no `{name}`: its keys are {}, friction",
+                    "a {shape_name} collider has no `{name}`: its keys are {}, friction, \
+                     sticky, keys",
                     allowed.join(", ")
                 ),
             });
@@ -684,13 +704,106 @@ fn collider(
                 .map(Spanned::into_inner)
                 .ok_or_else(|| missing("radius", "... (m)"))?,
         }),
-        _ => Shape::Box(Cuboid {
+        "box" => Shape::Box(Cuboid {
             center: v(c.center).unwrap_or(Vec3::ZERO),
             half_extents: v(c.half_extents)
                 .ok_or_else(|| missing("half_extents", "[x, y, z] (m)"))?,
         }),
+        _ => {
+            let file = c.file.ok_or_else(|| {
+                missing("file", "\"path/to/mesh.obj\" (relative to the scene file)")
+            })?;
+            let mesh = load_mesh(cx, &key("file"), &file)?;
+            // The collider names its file by the absolute path it was read from, so the
+            // resolved scene a run writes (`to_toml`) reads the same mesh from any folder.
+            let path = mesh_path(cx, file.get_ref());
+            let named = std::path::absolute(&path).unwrap_or(path);
+            Shape::Mesh(
+                Mesh::new(
+                    named.display().to_string(),
+                    mesh.vertices,
+                    mesh.triangles,
+                    v(c.position).unwrap_or(Vec3::ZERO),
+                    v(c.rotation).unwrap_or(Vec3::ZERO),
+                    c.scale.map_or(1.0, Spanned::into_inner),
+                )
+                .map_err(|e| SceneError::Invalid {
+                    at: cx.at(file.span()),
+                    key: key("file"),
+                    value: cx.raw(&file.span()),
+                    message: format!("{}: {e}", mesh_path(cx, file.get_ref()).display()),
+                })?,
+            )
+        }
     };
-    Ok(Collider { shape, friction })
+    let keys = c
+        .keys
+        .unwrap_or_default()
+        .into_iter()
+        .map(|k| Key {
+            time: k.time,
+            offset: k.offset.map_or(Vec3::ZERO, vec3),
+            rotation: k.rotation.map_or(Vec3::ZERO, vec3),
+        })
+        .collect();
+    Ok(Collider {
+        shape,
+        friction,
+        sticky: c.sticky.unwrap_or(true),
+        keys,
+        placement: None,
+    })
+}
+
+/// Where a mesh file named `file` in the scene is: relative to the scene file's folder.
+fn mesh_path(cx: &Ctx<'_>, file: &str) -> std::path::PathBuf {
+    let base = std::path::Path::new(cx.file)
+        .parent()
+        .unwrap_or(std::path::Path::new(""));
+    base.join(file)
+}
+
+/// Reads and parses the OBJ file named by the scene key `key` (its value `file`).
+fn load_mesh(
+    cx: &Ctx<'_>,
+    key: &str,
+    file: &Spanned<String>,
+) -> Result<crate::obj::ObjMesh, SceneError> {
+    use std::io::Read;
+    let path = mesh_path(cx, file.get_ref());
+    let fail = |message: String| SceneError::Invalid {
+        at: cx.at(file.span()),
+        key: key.to_string(),
+        value: cx.raw(&file.span()),
+        message,
+    };
+    let mut bytes = Vec::new();
+    std::fs::File::open(&path)
+        .and_then(|f| {
+            f.take(crate::obj::MAX_MESH_BYTES + 1)
+                .read_to_end(&mut bytes)
+        })
+        .map_err(|e| {
+            fail(format!(
+                "cannot read the mesh file {}: {e} (the path is relative to the scene file)",
+                path.display()
+            ))
+        })?;
+    if bytes.len() as u64 > crate::obj::MAX_MESH_BYTES {
+        return Err(fail(format!(
+            "the mesh file {} is larger than the {} MiB a mesh may have",
+            path.display(),
+            crate::obj::MAX_MESH_BYTES >> 20
+        )));
+    }
+    let text = String::from_utf8_lossy(&bytes);
+    crate::obj::parse(&text).map_err(|e| {
+        if e.line == 0 {
+            fail(format!("{}: {}", path.display(), e.message))
+        } else {
+            fail(format!("{}:{}: {}", path.display(), e.line, e.message))
+        }
+    })
 }
 
 /// A [`ConfigError`] placed at its key in the file (or at the table that lacks the key).

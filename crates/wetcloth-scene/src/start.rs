@@ -75,8 +75,12 @@ pub fn check(config: &SimConfig, given: impl Fn(usize, &str) -> bool) -> Result<
     let sticking = config.colliders.iter().position(|c| c.as_plane().is_some());
 
     for (index, collider) in config.colliders.iter().enumerate() {
+        // Where a moving collider is at the start.
+        let collider = &collider.at(0.0);
         let candidates: Vec<(usize, usize)> = match &collider.shape {
             Shape::Plane(_) => corners.to_vec(),
+            // Any particle may be the deepest in a mesh: all of them.
+            Shape::Mesh(_) => (0..nx).flat_map(|i| (0..nz).map(move |j| (i, j))).collect(),
             Shape::Sphere(Sphere { center, .. }) | Shape::Box(Cuboid { center, .. }) => {
                 let off = *center - origin;
                 nearest(off.x, grid.dx, nx)
@@ -112,6 +116,7 @@ pub fn check(config: &SimConfig, given: impl Fn(usize, &str) -> bool) -> Result<
             );
             let mut key = match collider.shape {
                 Shape::Plane(_) => "point",
+                Shape::Mesh(_) => "position",
                 _ => "center",
             };
             if let Shape::Plane(Plane { point: q, normal }) = collider.shape {

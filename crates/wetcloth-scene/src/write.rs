@@ -154,8 +154,29 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
                 let _ = writeln!(o, "center = {}  # m", v3(*center));
                 let _ = writeln!(o, "half_extents = {}  # m", v3(*half_extents));
             }
+            Shape::Mesh(m) => {
+                let _ = writeln!(o, "shape = \"mesh\"");
+                let _ = writeln!(o, "file = {}  # relative to the scene file", quote(&m.file));
+                let _ = writeln!(o, "position = {}  # m", v3(m.position));
+                let _ = writeln!(o, "rotation = {}  # degrees about x, y, z", v3(m.rotation));
+                let _ = writeln!(o, "scale = {}", f(m.scale));
+            }
         }
         let _ = writeln!(o, "friction = {}", f(col.friction));
+        let _ = writeln!(o, "sticky = {}", col.sticky);
+        if !col.keys.is_empty() {
+            let _ = writeln!(o, "keys = [  # time in s, offset in m, rotation in degrees");
+            for k in &col.keys {
+                let _ = writeln!(
+                    o,
+                    "    {{ time = {}, offset = {}, rotation = {} }},",
+                    f(k.time),
+                    v3(k.offset),
+                    v3(k.rotation)
+                );
+            }
+            let _ = writeln!(o, "]");
+        }
     }
     for g in &config.grabs {
         let _ = writeln!(o);

@@ -8,8 +8,8 @@
 //!   the cloth has passed through the sticking surface or through itself, and Boyle's law
 //!   means nothing any more.
 //! - **Energy from nowhere** ([`EnergyAudit`]): the cloth's mechanical energy (kinetic,
-//!   elastic, gravitational) may grow only by the work the hands do and the energy the air can
-//!   give; a run that gains far more is pumping energy out of round-off or out of a force law
+//!   elastic, gravitational) may grow only by the work the hands and the moving colliders do
+//!   (`Simulation` passes their sum as the hands' work) and the energy the air can give; a run that gains far more is pumping energy out of round-off or out of a force law
 //!   pushed past its validity, and stops.
 
 use crate::error::StepError;

@@ -349,8 +349,14 @@ impl Simulation {
             &self.model,
             &self.state,
             self.time_step(),
-            self.control.hand_work,
+            self.external_work(),
         );
+    }
+
+    /// The work done on the cloth from outside so far, J: the hands' and the moving colliders'
+    /// (summed magnitudes), which the energy audit allows for.
+    fn external_work(&self) -> Real {
+        self.control.hand_work + self.control.collider_work
     }
 
     /// Forgets the air's history: the previous volume becomes the current one.
@@ -465,8 +471,8 @@ impl Simulation {
         }
         if self.state.steps.is_multiple_of(checks::AUDIT_INTERVAL) {
             let dt = self.time_step();
-            self.audit
-                .check(&self.model, &self.state, self.control.hand_work, dt, time)?;
+            let work = self.external_work();
+            self.audit.check(&self.model, &self.state, work, dt, time)?;
         }
         Ok(())
     }
@@ -476,6 +482,14 @@ impl Simulation {
     /// reference. Returns whether anything moved.
     fn correct(&mut self, moved2: Real) -> bool {
         let (model, state, control) = (&self.model, &mut self.state, &self.control);
+        // The colliders where they are at the end of the step (a copy only if any moves).
+        let end = (state.steps + 1) as Real * self.config.simulation.time_step;
+        let colliders: std::borrow::Cow<'_, [crate::collide::Collider]> = if model.moving.is_empty()
+        {
+            std::borrow::Cow::Borrowed(&model.colliders)
+        } else {
+            model.colliders.iter().map(|c| c.at(end)).collect()
+        };
         // The grabbed particles' moves count too.
         let mut moved2 = moved2;
         if let Some(r) = self
@@ -492,7 +506,7 @@ impl Simulation {
             corrected |= sc.solve_moved(&model.grid, &mut state.x, &control.held, Some(moved2)) > 0;
         }
         if corrected && !model.colliders.is_empty() {
-            let (colliders, r, held) = (&model.colliders, model.radius, &control.held);
+            let (colliders, r, held) = (&*colliders, model.radius, &control.held);
             exec::map_in_place(&mut state.x, |k, p| {
                 if held[k] {
                     p
@@ -511,7 +525,7 @@ impl Simulation {
                 &control.held,
                 cloth.strain_limit,
                 cloth.strain_limit_iterations,
-                &model.colliders,
+                &colliders,
                 model.radius,
                 &mut self.strain,
             )

@@ -192,7 +192,9 @@ pub(crate) fn build_stage(spec: &CacheSpec<'_>) -> Stage {
     let size = run.size[0].max(run.size[1]);
     let mut colliders = Prim::new("colliders", "Scope");
     for (k, c) in run.colliders.iter().enumerate() {
-        colliders.children.push(collider_prim(k, c, size));
+        colliders
+            .children
+            .push(collider_prim(k, c, size, run.frame_rate));
     }
     if !colliders.children.is_empty() {
         root.children.push(colliders);
@@ -265,8 +267,32 @@ fn param_attr(p: &SceneParam) -> Attr {
     Attr::new(&p.name, type_name, value).custom()
 }
 
-/// A collider's prim, named `<shape>_<k>`. `cloth_size` (m) sizes a plane's quad.
-fn collider_prim(k: usize, c: &Collider, cloth_size: f64) -> Prim {
+/// A collider's motion as `xformOp`s about its pivot `pivot` (m) with scene rotation `base`
+/// (degrees): translate to the pivot plus each key's offset, rotate by `base` plus each key's
+/// rotation, at time code `time * fps` (USD interpolates samples linearly and holds them
+/// outside, as the keys do). A still collider gets the fixed pivot, and a rotation only if
+/// `base` is not zero.
+fn motion_ops(c: &Collider, pivot: [f64; 3], base: [f64; 3], fps: f64) -> XformOps {
+    let add = |a: [f64; 3], b: wetcloth::Vec3| [a[0] + b.x, a[1] + b.y, a[2] + b.z];
+    if c.keys.is_empty() {
+        return XformOps {
+            rotate_xyz: (base != [0.0; 3]).then_some(Motion::Fixed(base)),
+            ..XformOps::translate(pivot)
+        };
+    }
+    let at = |f: &dyn Fn(&wetcloth::collide::Key) -> [f64; 3]| {
+        Motion::Keys(c.keys.iter().map(|k| (k.time * fps, f(k))).collect())
+    };
+    XformOps {
+        translate: Some(at(&|k| add(pivot, k.offset))),
+        rotate_xyz: Some(at(&|k| add(base, k.rotation))),
+        scale: None,
+    }
+}
+
+/// A collider's prim, named `<shape>_<k>`. `cloth_size` (m) sizes a plane's quad; `fps` is
+/// the stage's time codes per second, for a moving collider's time samples.
+fn collider_prim(k: usize, c: &Collider, cloth_size: f64, fps: f64) -> Prim {
     let custom = |name: &str, type_name, value| Attr::new(name, type_name, value).custom();
     let shape = |s: &str| custom("wetcloth:shape", "token", Value::Token(s.into()));
     let friction = |f: f64| custom("wetcloth:friction", "double", Value::Double(f));
@@ -275,12 +301,15 @@ fn collider_prim(k: usize, c: &Collider, cloth_size: f64) -> Prim {
     match &c.shape {
         Shape::Plane(Plane { point, normal }) => {
             let (point, normal) = (&point.to_array(), &normal.to_array());
-            let mut p = plane_quad(
-                &format!("plane_{k}"),
-                *point,
-                *normal,
-                (PLANE_HALF_SIDE * cloth_size).max(PLANE_MIN_HALF_SIDE),
-            );
+            let half = (PLANE_HALF_SIDE * cloth_size).max(PLANE_MIN_HALF_SIDE);
+            let mut p = if c.keys.is_empty() {
+                plane_quad(&format!("plane_{k}"), *point, *normal, half)
+            } else {
+                // About its point, which the keys move.
+                let mut p = plane_quad(&format!("plane_{k}"), [0.0; 3], *normal, half);
+                motion_ops(c, *point, [0.0; 3], fps).author(&mut p);
+                p
+            };
             p.attrs.extend([
                 shape("plane"),
                 friction(*mu),
@@ -297,7 +326,7 @@ fn collider_prim(k: usize, c: &Collider, cloth_size: f64) -> Prim {
                 Attr::new("radius", "double", Value::Double(*radius)),
                 Attr::new("extent", "float3[]", Value::Float3s(vec![[-r; 3], [r; 3]])),
             ];
-            XformOps::translate(*center).author(&mut p);
+            motion_ops(c, *center, [0.0; 3], fps).author(&mut p);
             p.attrs.extend([shape("sphere"), friction(*mu)]);
             p
         }
@@ -317,13 +346,58 @@ fn collider_prim(k: usize, c: &Collider, cloth_size: f64) -> Prim {
             ];
             XformOps {
                 scale: Some(Motion::Fixed(*half_extents)),
-                ..XformOps::translate(*center)
+                ..motion_ops(c, *center, [0.0; 3], fps)
             }
             .author(&mut p);
             p.attrs.extend([
                 shape("box"),
                 friction(*mu),
                 custom("wetcloth:half_extents", "double3", d3(half_extents)),
+            ]);
+            p
+        }
+        Shape::Mesh(m) => {
+            // The model's own points, placed (and moved) by the xform ops.
+            let points: Vec<[f32; 3]> = m
+                .vertices()
+                .iter()
+                .map(|v| v.to_array().map(|c| c as f32))
+                .collect();
+            let mut lo = [f32::INFINITY; 3];
+            let mut hi = [f32::NEG_INFINITY; 3];
+            for q in &points {
+                for i in 0..3 {
+                    lo[i] = lo[i].min(q[i]);
+                    hi[i] = hi[i].max(q[i]);
+                }
+            }
+            let indices = m
+                .triangles()
+                .iter()
+                .flat_map(|t| t.map(|i| i as i32))
+                .collect();
+            let mut p = Prim::new(&format!("mesh_{k}"), "Mesh");
+            p.attrs = vec![
+                Attr::new(
+                    "faceVertexCounts",
+                    "int[]",
+                    Value::Ints(vec![3; m.triangles().len()]),
+                ),
+                Attr::new("faceVertexIndices", "int[]", Value::Ints(indices)),
+                Attr::new("points", "point3f[]", Value::Float3s(points)),
+                Attr::new("extent", "float3[]", Value::Float3s(vec![lo, hi])),
+                Attr::new("subdivisionScheme", "token", Value::Token("none".into())).uniform(),
+            ];
+            let s = m.scale;
+            XformOps {
+                scale: (s != 1.0).then_some(Motion::Fixed([s; 3])),
+                ..motion_ops(c, m.position.to_array(), m.rotation.to_array(), fps)
+            }
+            .author(&mut p);
+            p.attrs.extend([
+                shape("mesh"),
+                friction(*mu),
+                custom("wetcloth:file", "string", Value::String(m.file.clone())),
             ]);
             p
         }
@@ -394,7 +468,6 @@ pub(crate) enum Motion {
     Fixed([f64; 3]),
     /// `(time code, value)` keys, in increasing time: linear between keys, held before the
     /// first and after the last (USD's rule for time samples).
-    #[allow(dead_code)]
     Keys(Vec<(f64, [f64; 3])>),
 }
 
@@ -482,6 +555,76 @@ mod tests {
             let dot = w[0] * n[0] + w[1] * n[1] + w[2] * n[2];
             assert!((dot - 16.0).abs() < 1e-4, "{dot}");
         }
+    }
+
+    /// A mesh collider is written with its model's triangles and points, placed by its
+    /// position, rotation and scale; a moving collider's keys become time samples at
+    /// `time * fps` of its pivot plus offset and its rotation plus the key's.
+    #[test]
+    fn mesh_colliders_carry_their_triangles_and_motion() {
+        use wetcloth::Vec3;
+        use wetcloth::collide::{Key, Mesh};
+        let v = vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::Y];
+        let f = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        let mesh = Mesh::new(
+            "/m/tetra.obj",
+            v,
+            f,
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::new(0.0, 90.0, 0.0),
+            0.5,
+        )
+        .unwrap();
+        let mut c = Collider::mesh(mesh, 0.4);
+        c.keys = vec![
+            Key {
+                time: 0.5,
+                offset: Vec3::ZERO,
+                rotation: Vec3::ZERO,
+            },
+            Key {
+                time: 1.0,
+                offset: Vec3::new(0.0, -0.1, 0.0),
+                rotation: Vec3::new(0.0, 0.0, 30.0),
+            },
+        ];
+        let p = collider_prim(2, &c, 0.3, 60.0);
+        assert_eq!((p.name.as_str(), p.type_name), ("mesh_2", "Mesh"));
+        let attr = |name: &str| {
+            &p.attrs
+                .iter()
+                .find(|a| a.name == name)
+                .unwrap_or_else(|| panic!("no {name}"))
+                .data
+        };
+        let Data::Default(Value::Ints(counts)) = attr("faceVertexCounts") else {
+            panic!("counts")
+        };
+        assert_eq!(counts, &vec![3; 4]);
+        let Data::Default(Value::Ints(indices)) = attr("faceVertexIndices") else {
+            panic!("indices")
+        };
+        assert_eq!(indices[..6], [0, 2, 1, 0, 1, 3]);
+        let Data::Default(Value::Float3s(points)) = attr("points") else {
+            panic!("points")
+        };
+        assert_eq!(points[3], [0.0, 1.0, 0.0]);
+        let Data::Samples(t) = attr("xformOp:translate") else {
+            panic!("translate samples")
+        };
+        assert_eq!(t.len(), 2);
+        assert_eq!(t[0], (30.0, Value::DoubleTuple(vec![1.0, 2.0, 3.0])));
+        let Data::Samples(r) = attr("xformOp:rotateXYZ") else {
+            panic!("rotate samples")
+        };
+        assert_eq!(r[1], (60.0, Value::DoubleTuple(vec![0.0, 90.0, 30.0])));
+        let Data::Default(Value::DoubleTuple(scale)) = attr("xformOp:scale") else {
+            panic!("scale")
+        };
+        assert_eq!(scale, &vec![0.5; 3]);
+        // A still sphere keeps its fixed translate and no rotation.
+        let p = collider_prim(0, &Collider::sphere(Vec3::X, 0.1, 0.5), 0.3, 60.0);
+        assert!(p.attrs.iter().all(|a| a.name != "xformOp:rotateXYZ"));
     }
 
     #[test]

@@ -175,6 +175,10 @@ pub fn render_run_with_progress(
         None => (Some(GroundPlane::default()), Vec::new()),
         Some(i) => collider_scene(&i.colliders),
     };
+    // Moving colliders are drawn where their keys put them at each frame's time.
+    let moving = info
+        .as_ref()
+        .is_some_and(|i| i.colliders.iter().any(|c| c.is_moving()));
     let grabbed: Vec<usize> = match &info {
         Some(i) if opts.show_grabs => {
             let nx = i.resolution[0];
@@ -238,6 +242,18 @@ pub fn render_run_with_progress(
                 .copied()
                 .filter(|&k| k < mesh.positions.len())
                 .collect();
+            let moved = match &info {
+                Some(i) if moving => {
+                    let t = *n as f64 / i.frame_rate;
+                    let at: Vec<_> = i.colliders.iter().map(|c| c.at(t)).collect();
+                    Some(collider_scene(&at))
+                }
+                _ => None,
+            };
+            let (ground, solids) = match &moved {
+                Some((g, s)) => (*g, s.as_slice()),
+                None => (ground, solids.as_slice()),
+            };
             let scene = SceneView {
                 cloth: MeshView {
                     positions: &mesh.positions,
@@ -249,7 +265,7 @@ pub fn render_run_with_progress(
                 particle_radius: dot_radius(particle_radius, &mesh),
                 highlight: None,
                 pinned: &pinned,
-                solids: &solids,
+                solids,
                 camera,
                 wetness: opts.wetness,
             };

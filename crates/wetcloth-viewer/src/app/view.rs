@@ -20,11 +20,23 @@ impl ViewerApp {
         self.view_proj = self.camera.view_proj(vp.aspect());
 
         let s = &self.snap;
+        // Moving colliders are drawn where their keys put them at the snapshot's time.
+        let scene = if s.config.colliders.iter().any(|c| c.is_moving()) {
+            let at: Vec<_> = s
+                .config
+                .colliders
+                .iter()
+                .map(|c| c.at(s.metrics.time))
+                .collect();
+            Arc::new(wetcloth_render::collider_scene(&at))
+        } else {
+            Arc::clone(&self.mesh.scene)
+        };
         let frame = view3d::Frame {
             positions: s.positions.clone(),
             normals: s.normals.clone(),
             indices: Arc::clone(&self.mesh.indices),
-            scene: Arc::clone(&self.mesh.scene),
+            scene,
             show_particles: self.pick_mode,
             particle_radius: particle_size(&s.config),
             highlight: self.drag.map(|d| d.particle).or(self.hover),

@@ -136,6 +136,8 @@ pub struct Pockets {
 struct Pending {
     dt: Real,
     first_step: bool,
+    /// Time at the end of the step, s (where moving colliders are then).
+    end: Real,
 }
 
 /// Scratch buffers, kept so that a step allocates nothing once warm.
@@ -172,7 +174,10 @@ impl Pockets {
             particle_pocket: vec![NONE; n],
             cell_open: vec![false; cells],
             cell_volume: vec![0.0; cells],
-            surface: !(model.colliders.len() == 1 && model.colliders[0].as_plane().is_some()),
+            surface: !(model.colliders.len() == 1
+                && model.colliders[0].as_plane().is_some()
+                && model.colliders[0].sticky
+                && !model.colliders[0].is_moving()),
             touching: vec![false; n],
             previous_sealed: vec![false; n],
             any_sealed: false,
@@ -191,7 +196,7 @@ impl Pockets {
                 dx * dx + dz * dz <= s.radius * s.radius
             })
         };
-        p.gaps(model, &state.x);
+        p.gaps(model, &state.x, 0.0);
         p.cell_volumes(model, &state.x, measures);
         p.seal(air, model, |k, _| seed_of(k).is_none());
         p.resegment(air, model, true);
@@ -264,6 +269,7 @@ impl Pockets {
             self.pending = Some(Pending {
                 dt,
                 first_step: state.steps == 0,
+                end: (state.steps + 1) as Real * dt,
             });
             Timing::EndOfStep
         } else {
@@ -318,7 +324,7 @@ impl Pockets {
         coast_gap.clear();
         coast_cells.clear();
         if self.surface {
-            self.gaps(model, coast);
+            self.gaps(model, coast, pending.end);
             coast_cells.resize(self.cell_volume.len(), 0.0);
             surface_cell_volumes(
                 &model.grid,
@@ -449,7 +455,7 @@ impl Pockets {
     ) {
         let pa = air.atmospheric_pressure;
         // New volumes of the old pockets, then their leaks over the step.
-        self.gaps(model, &state.x);
+        self.gaps(model, &state.x, state.steps as Real * dt);
         self.cell_volumes(model, &state.x, measures);
         self.measure_volumes();
         for pocket in &mut self.pockets {
@@ -489,10 +495,11 @@ impl Pockets {
         self.update_pressures(air);
     }
 
-    /// Each particle's distance from `x` to the nearest collider surface (m, in the scratch's
-    /// `gap`) and, when measuring against the colliders' surfaces, that surface's outward
-    /// normal (`normal`). A plane's distance is a vectorised dot product.
-    fn gaps(&mut self, model: &Model, x: &Soa) {
+    /// Each particle's distance from `x` to the nearest sticky collider's surface (m, in the
+    /// scratch's `gap`; moving colliders where they are at time `t`, s) and, when measuring
+    /// against the colliders' surfaces, that surface's outward normal (`normal`). A still
+    /// plane's distance is a vectorised dot product.
+    fn gaps(&mut self, model: &Model, x: &Soa, t: Real) {
         let n = x.len();
         let sc = &mut self.scratch;
         sc.gap.clear();
@@ -500,9 +507,16 @@ impl Pockets {
         if self.surface {
             sc.normal.clear();
             sc.normal.resize(n, crate::math::Vec3::Y);
-            for c in &model.colliders {
+            for c in model.colliders.iter().filter(|c| c.sticky) {
+                let place = c.is_moving().then(|| c.placement_at(t));
                 for k in 0..n {
-                    let (d, normal) = c.distance(x.get(k));
+                    let (d, normal) = match &place {
+                        None => c.distance(x.get(k)),
+                        Some(at) => {
+                            let (d, normal) = c.rest_distance(at.to_rest(x.get(k)));
+                            (d, at.dir_to_world(normal))
+                        }
+                    };
                     if d < sc.gap[k] {
                         sc.gap[k] = d;
                         sc.normal[k] = normal;
@@ -511,8 +525,8 @@ impl Pockets {
             }
             return;
         }
-        for c in &model.colliders {
-            if let crate::collide::Shape::Plane(plane) = &c.shape {
+        for c in model.colliders.iter().filter(|c| c.sticky) {
+            if let (crate::collide::Shape::Plane(plane), false) = (&c.shape, c.is_moving()) {
                 let (nv, o) = (plane.normal, plane.normal.dot(plane.point));
                 for (k, g) in sc.gap.iter_mut().enumerate() {
                     *g = g.min(nv.x * x.x[k] + nv.y * x.y[k] + nv.z * x.z[k] - o);
@@ -877,8 +891,16 @@ pub fn surface_cell_volumes(
     out: &mut [Real],
 ) {
     let (nx, m) = (grid.nx, grid.nx - 1);
+    // No sticky surface under a particle (an infinite gap): no volume to measure there.
+    let height = |k: usize| {
+        if gap[k].is_finite() {
+            gap[k] - radius
+        } else {
+            0.0
+        }
+    };
     let frustum = |a: usize, b: usize, c: usize| {
-        let (ha, hb, hc) = (gap[a] - radius, gap[b] - radius, gap[c] - radius);
+        let (ha, hb, hc) = (height(a), height(b), height(c));
         let (na, nb, nc) = (normal[a], normal[b], normal[c]);
         let (pa, pb, pc) = (x.get(a), x.get(b), x.get(c));
         let (qa, qb, qc) = (pa - na * ha, pb - nb * hb, pc - nc * hc);

@@ -9,8 +9,16 @@
 //! reduced by at most `mu delta`: if that stops it the particle sticks (static friction),
 //! otherwise it slides with the kinetic-friction deceleration. On a slope of angle theta this
 //! gives exactly `a = g (sin theta - mu cos theta)`.
+//!
+//! **Moving colliders** ([`resolve_moving`]) answer in their own moving frame: the particle's
+//! start of step is taken into the collider's frame at the start of the step, its predicted
+//! position into the frame at the end, and the response above is computed there and mapped
+//! back. So friction acts on the motion *relative to the surface*, and a particle resting on a
+//! moving plate rides along with it. The collider does work on the cloth: the contact force
+//! `F = m dx / dt^2` (`dx` the correction) over the move `u` of the touched surface point during
+//! the step, `W = F . u`, which the energy audit counts (see `checks.rs`).
 
-use super::Collider;
+use super::{Collider, Placement};
 use crate::math::{Real, Vec3};
 
 /// Pushes the particle sphere (radius `radius`, m) predicted at `x` out of every collider and
@@ -33,7 +41,9 @@ pub fn resolve_scaled(
 ) -> (Vec3, bool) {
     let mut touched = false;
     for c in colliders {
-        let (d, n) = c.distance(x);
+        let Some((d, n)) = c.rest_contact(x_old, x, radius) else {
+            continue;
+        };
         if d >= radius {
             continue;
         }
@@ -53,13 +63,76 @@ pub fn resolve_scaled(
     (x, touched)
 }
 
+/// Where a moving collider is at the start and at the end of a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frames {
+    /// Placement at the start of the step.
+    pub start: Placement,
+    /// Placement at the end of the step.
+    pub end: Placement,
+}
+
+impl Frames {
+    /// The frames of `collider` over the step from `t` to `t + dt` (s).
+    pub fn of(collider: &Collider, t: Real, dt: Real) -> Self {
+        Self {
+            start: collider.placement_at(t),
+            end: collider.placement_at(t + dt),
+        }
+    }
+}
+
+/// [`resolve_scaled`] for one moving collider `c` at `frames`, in its moving frame (see the
+/// module docs), for a particle of mass `mass` (kg) over a step whose forces move a particle
+/// by `F step_per_force / m` (`step_per_force` = `dt^2`, s^2). Returns the corrected position,
+/// whether it touched, and the work the collider did on the particle (J).
+#[inline]
+#[allow(clippy::too_many_arguments)] // one particle, its collider and its step
+pub fn resolve_moving(
+    c: &Collider,
+    frames: &Frames,
+    x_old: Vec3,
+    x: Vec3,
+    radius: Real,
+    friction_scale: Real,
+    mass: Real,
+    step_per_force: Real,
+) -> (Vec3, bool, Real) {
+    let q0 = frames.start.to_rest(x_old);
+    let mut q = frames.end.to_rest(x);
+    let Some((d, n)) = c.rest_contact(q0, q, radius) else {
+        return (x, false, 0.0);
+    };
+    if d >= radius {
+        return (x, false, 0.0);
+    }
+    let depth = radius - d;
+    q += n * depth;
+    let step = q - q0;
+    let tangential = step - n * step.dot(n);
+    let slide = tangential.length();
+    let grip = c.friction * friction_scale * depth;
+    q -= if slide <= grip {
+        tangential
+    } else {
+        tangential * (grip / slide)
+    };
+    let out = frames.end.to_world(q);
+    let surface_move = out - frames.start.to_world(q);
+    let work = mass * (out - x).dot(surface_move) / step_per_force;
+    (out, true, work)
+}
+
 /// Pushes `x` out of every collider along the normal only (after position corrections such as
-/// self-collision, which must not leave a particle inside a collider).
+/// self-collision, which must not leave a particle inside a collider). A mesh is searched only
+/// within `radius` of `x`: the corrections start from particles outside every collider and
+/// move them by less than that.
 #[inline]
 pub fn project(colliders: &[Collider], mut x: Vec3, radius: Real) -> Vec3 {
     for c in colliders {
-        let (d, n) = c.distance(x);
-        if d < radius {
+        if let Some((d, n)) = c.distance_within(x, radius)
+            && d < radius
+        {
             x += n * (radius - d);
         }
     }
@@ -93,5 +166,41 @@ mod tests {
         // Clear of the plane: untouched.
         let p = Vec3::new(1.0, 0.5, 0.0);
         assert_eq!(resolve(&floor, p, p, 0.01), (p, false));
+    }
+
+    /// A particle resting on a plate that moves sideways rides along when friction can hold it
+    /// (static friction in the plate's frame), and slides by the grip `mu depth` when not; the
+    /// plate does work on it only along its move.
+    #[test]
+    fn a_particle_rides_a_moving_plate() {
+        let plate = |speed: Real| {
+            let mut c = Collider::plane(Vec3::ZERO, Vec3::Y, 0.5);
+            c.keys = [0.0, 1.0]
+                .map(|t| super::super::Key {
+                    time: t,
+                    offset: Vec3::new(speed * t, 0.0, 0.0),
+                    rotation: Vec3::ZERO,
+                })
+                .to_vec();
+            c
+        };
+        let (r, dt2) = (0.01, 1e-6);
+        // Resting at height r, pressed 1e-6 m in over the step: grip 5e-7 m.
+        let start = Vec3::new(0.0, r, 0.0);
+        let pressed = start - Vec3::Y * 1e-6;
+        // The plate moves 1e-7 m in the step: carried along exactly.
+        let slow = plate(1e-4);
+        let frames = Frames::of(&slow, 0.5, 1e-3);
+        let (x, hit, work) = resolve_moving(&slow, &frames, start, pressed, r, 1.0, 1.0, dt2);
+        assert!(hit);
+        assert!((x - Vec3::new(1e-7, r, 0.0)).length() < 1e-15, "{x}");
+        // F = m dx / dt^2 with dx = (1e-7, 1e-6, 0), over the plate's move (1e-7, 0, 0).
+        let expected = 1e-7 * 1e-7 / dt2;
+        assert!((work - expected).abs() < 1e-9 * expected, "{work}");
+        // The plate moves 1e-3 m: the particle slides, dragged by the grip only.
+        let fast = plate(1.0);
+        let frames = Frames::of(&fast, 0.5, 1e-3);
+        let (x, _, _) = resolve_moving(&fast, &frames, start, pressed, r, 1.0, 1.0, dt2);
+        assert!((x - Vec3::new(5e-7, r, 0.0)).length() < 1e-15, "{x}");
     }
 }

@@ -12,16 +12,22 @@
 //! | `plane.rs` | [`Plane`]: infinite plane; the vectorised row contact the step uses for planes |
 //! | `sphere.rs` | [`Sphere`]: solid sphere |
 //! | `cuboid.rs` | [`Cuboid`]: solid axis-aligned box |
+//! | `mesh.rs` | [`Mesh`]: triangle mesh from a file, closed (a solid) or open (a sheet) |
+//! | `motion.rs` | keys of a moving collider and the [`motion::Placement`] they give |
 //! | `contact.rs` | normal force and friction as a position correction, for any shape |
 //! | `self_collision.rs` | particle-particle collision: hashed grid, skinned lists, Jacobi |
 
 pub mod contact;
 pub mod cuboid;
+pub mod mesh;
+pub mod motion;
 pub mod plane;
 pub mod self_collision;
 pub mod sphere;
 
 pub use cuboid::Cuboid;
+pub use mesh::{Mesh, MeshError};
+pub use motion::{Key, Placement};
 pub use plane::Plane;
 pub use sphere::Sphere;
 
@@ -42,20 +48,52 @@ pub enum Shape {
     Sphere(Sphere),
     /// Solid axis-aligned box (scene `shape = "box"`).
     Box(Cuboid),
+    /// Triangle mesh (scene `shape = "mesh"`): a solid if closed, else a two-sided sheet.
+    Mesh(Mesh),
 }
 
-/// A collider: a shape with a Coulomb friction coefficient.
+/// A collider: a shape with a Coulomb friction coefficient, whether air may seal against it,
+/// and its motion.
 ///
-/// Not `Copy`: shapes may own data (a triangle mesh cannot be copied for free).
+/// Not `Copy`: shapes may own data (a triangle mesh cannot be copied for free; it is shared).
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Collider {
-    /// The shape.
+    /// The shape, where the scene puts it.
     #[cfg_attr(feature = "serde", serde(flatten))]
     pub shape: Shape,
     /// Coulomb friction coefficient mu, one for static and kinetic friction (thesis eq. 3.5).
     /// Default 0.6; range [0, 10].
     pub friction: Real,
+    /// Whether trapped air may seal against this collider (scene `sticky`). Default true.
+    /// (Written to `run.json` only when false, and `keys` only when there are some, so a
+    /// still, sticky collider reads as before.)
+    #[cfg_attr(
+        feature = "serde",
+        serde(default = "sticky_default", skip_serializing_if = "is_true")
+    )]
+    pub sticky: bool,
+    /// The collider's motion (scene `keys`, see [`motion`]): offsets and rotations from where
+    /// the scene puts it, linear between keys, held outside them. Default none (still).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Vec::is_empty")
+    )]
+    pub keys: Vec<Key>,
+    /// Where the shape is at the time this copy was taken by [`Collider::at`]; `None` is the
+    /// scene's own placement.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub placement: Option<Placement>,
+}
+
+#[cfg(feature = "serde")]
+fn sticky_default() -> bool {
+    true
+}
+
+#[cfg(feature = "serde")]
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 /// What a collider looks like, for renderers: an infinite plane, or a triangle mesh.
@@ -68,7 +106,7 @@ pub enum Surface {
         /// Unit normal, out of the solid.
         normal: Vec3,
     },
-    /// A closed triangle mesh.
+    /// A triangle mesh (closed, except for an open mesh collider).
     Mesh(SurfaceMesh),
 }
 
@@ -93,6 +131,9 @@ impl Collider {
                 normal: normal.normalize_or_zero(),
             }),
             friction,
+            sticky: true,
+            keys: Vec::new(),
+            placement: None,
         }
     }
 
@@ -101,6 +142,9 @@ impl Collider {
         Self {
             shape: Shape::Sphere(Sphere { center, radius }),
             friction,
+            sticky: true,
+            keys: Vec::new(),
+            placement: None,
         }
     }
 
@@ -112,7 +156,53 @@ impl Collider {
                 half_extents,
             }),
             friction,
+            sticky: true,
+            keys: Vec::new(),
+            placement: None,
         }
+    }
+
+    /// A mesh collider.
+    pub fn mesh(mesh: Mesh, friction: Real) -> Self {
+        Self {
+            shape: Shape::Mesh(mesh),
+            friction,
+            sticky: true,
+            keys: Vec::new(),
+            placement: None,
+        }
+    }
+
+    /// Whether the collider moves (has keys).
+    pub fn is_moving(&self) -> bool {
+        !self.keys.is_empty()
+    }
+
+    /// The shape's reference point for its motion (m) and its scene rotation (degrees): a
+    /// mesh's position and rotation, a sphere's or box's centre, a plane's point.
+    pub fn pivot(&self) -> (Vec3, Vec3) {
+        match &self.shape {
+            Shape::Plane(s) => (s.point, Vec3::ZERO),
+            Shape::Sphere(s) => (s.center, Vec3::ZERO),
+            Shape::Box(s) => (s.center, Vec3::ZERO),
+            Shape::Mesh(s) => (s.position, s.rotation),
+        }
+    }
+
+    /// The placement of the shape at time `t` (s) by its keys.
+    pub fn placement_at(&self, t: Real) -> Placement {
+        let (pivot, base) = self.pivot();
+        Placement::at(&self.keys, pivot, base, t)
+    }
+
+    /// This collider as it is at time `t` (s): itself if it does not move, else a copy whose
+    /// queries ([`Collider::distance`], [`Collider::surface`]) answer for its placement then.
+    pub fn at(&self, t: Real) -> Self {
+        let mut c = self.clone();
+        if self.is_moving() {
+            c.placement = Some(self.placement_at(t));
+        }
+        c
     }
 
     /// The plane, if this collider is one.
@@ -129,6 +219,7 @@ impl Collider {
             Shape::Plane(_) => "plane",
             Shape::Sphere(_) => "sphere",
             Shape::Box(_) => "box",
+            Shape::Mesh(_) => "mesh",
         }
     }
 
@@ -136,23 +227,86 @@ impl Collider {
     /// at the closest surface point.
     #[inline]
     pub fn distance(&self, p: Vec3) -> (Real, Vec3) {
+        match &self.placement {
+            None => self.rest_distance(p),
+            Some(at) => {
+                let (d, n) = self.rest_distance(at.to_rest(p));
+                (d, at.dir_to_world(n))
+            }
+        }
+    }
+
+    /// [`Collider::distance`] where the surface is within `reach` (m) of `p`; `None` when it is
+    /// certainly farther (only a mesh answers `None`, sparing the full closest-point search).
+    #[inline]
+    pub fn distance_within(&self, p: Vec3, reach: Real) -> Option<(Real, Vec3)> {
+        match &self.placement {
+            None => self.rest_contact(p, p, reach),
+            Some(at) => {
+                let q = at.to_rest(p);
+                let (d, n) = self.rest_contact(q, q, reach)?;
+                Some((d, at.dir_to_world(n)))
+            }
+        }
+    }
+
+    /// [`Collider::distance`] of the shape where the scene puts it.
+    #[inline]
+    pub fn rest_distance(&self, p: Vec3) -> (Real, Vec3) {
         match &self.shape {
             Shape::Plane(s) => s.distance(p),
             Shape::Sphere(s) => s.distance(p),
             Shape::Box(s) => s.distance(p),
+            Shape::Mesh(s) => s.distance(p),
+        }
+    }
+
+    /// The contact query of a particle moving from `prev` to `p` (both in the shape's scene
+    /// placement, m): `None` when the surface is certainly farther than `reach` (m) from `p`;
+    /// else the signed distance of `p` and the unit normal, on the side the particle came from
+    /// (which only a mesh needs: see [`mesh`]).
+    #[inline]
+    pub fn rest_contact(&self, prev: Vec3, p: Vec3, reach: Real) -> Option<(Real, Vec3)> {
+        match &self.shape {
+            Shape::Mesh(s) => s.contact(prev, p, reach),
+            _ => Some(self.rest_distance(p)),
         }
     }
 
     /// What the collider looks like (for renderers and viewers).
     pub fn surface(&self) -> Surface {
-        match &self.shape {
+        let rest = match &self.shape {
             Shape::Plane(s) => Surface::Plane {
                 point: s.point,
                 normal: s.normal,
             },
             Shape::Sphere(s) => Surface::Mesh(s.surface_mesh()),
             Shape::Box(s) => Surface::Mesh(s.surface_mesh()),
+            Shape::Mesh(s) => Surface::Mesh(s.surface_mesh()),
+        };
+        let Some(at) = &self.placement else {
+            return rest;
+        };
+        match rest {
+            Surface::Plane { point, normal } => Surface::Plane {
+                point: at.to_world(point),
+                normal: at.dir_to_world(normal),
+            },
+            Surface::Mesh(mut m) => {
+                for p in &mut m.positions {
+                    *p = at.to_world(*p);
+                }
+                for n in &mut m.normals {
+                    *n = at.dir_to_world(*n);
+                }
+                Surface::Mesh(m)
+            }
         }
+    }
+
+    /// What the collider looks like at time `t` (s), moved by its keys.
+    pub fn surface_at(&self, t: Real) -> Surface {
+        self.at(t).surface()
     }
 
     /// Checks the collider's parameters; `index` names it in messages (`collider[index].key`).
@@ -165,10 +319,12 @@ impl Collider {
                 range: "[0, 10]".into(),
             });
         }
+        motion::validate(&self.keys, &key)?;
         match &self.shape {
             Shape::Plane(s) => s.validate(&key),
             Shape::Sphere(s) => s.validate(&key),
             Shape::Box(s) => s.validate(&key),
+            Shape::Mesh(s) => s.validate(&key),
         }
     }
 }

@@ -20,6 +20,8 @@ pub struct Control {
     pub(crate) held: Vec<bool>,
     /// Summed magnitude of the work the hands have done on the cloth since t = 0, J.
     pub(crate) hand_work: Real,
+    /// Summed magnitude of the work the moving colliders have done on the cloth since t = 0, J.
+    pub(crate) collider_work: Real,
 }
 
 impl Control {
@@ -31,6 +33,7 @@ impl Control {
             targets: Vec::new(),
             held: vec![false; n],
             hand_work: 0.0,
+            collider_work: 0.0,
         }
     }
 
@@ -64,6 +67,11 @@ impl Control {
     /// Summed magnitude of the work the hands have done on the cloth since t = 0, J.
     pub fn hand_work(&self) -> Real {
         self.hand_work
+    }
+
+    /// Summed magnitude of the work the moving colliders have done on the cloth since t = 0, J.
+    pub fn collider_work(&self) -> Real {
+        self.collider_work
     }
 
     /// Removes grab `index`, releasing its particle.

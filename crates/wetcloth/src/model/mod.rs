@@ -58,9 +58,12 @@ pub struct Model {
     pub springs: SpringConsts,
     /// Plane colliders prepared for the vectorised contact row.
     pub(crate) planes: Vec<PlaneContact>,
-    /// The colliders without a vectorised row (every shape but the plane), answered through
-    /// [`Collider::distance`].
+    /// The still colliders without a vectorised row (every shape but the plane), answered
+    /// through [`Collider::rest_contact`].
     pub(crate) non_planes: Vec<Collider>,
+    /// The moving colliders (with keys), any shape, answered in their moving frame
+    /// ([`crate::collide::contact::resolve_moving`]).
+    pub(crate) moving: Vec<Collider>,
 }
 
 impl Model {
@@ -126,6 +129,7 @@ impl Model {
             planes: config
                 .colliders
                 .iter()
+                .filter(|c| !c.is_moving())
                 .filter_map(|c| {
                     c.as_plane()
                         .map(|p| PlaneContact::new(p, c.friction, radius))
@@ -134,7 +138,13 @@ impl Model {
             non_planes: config
                 .colliders
                 .iter()
-                .filter(|c| c.as_plane().is_none())
+                .filter(|c| c.as_plane().is_none() && !c.is_moving())
+                .cloned()
+                .collect(),
+            moving: config
+                .colliders
+                .iter()
+                .filter(|c| c.is_moving())
                 .cloned()
                 .collect(),
             grid,

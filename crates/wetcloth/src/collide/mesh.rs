@@ -1,0 +1,451 @@
+//! The triangle-mesh collider (scene `shape = "mesh"`): any surface given as triangles, placed
+//! by a position, a rotation and a uniform scale.
+//!
+//! Queries go through `parry3d-f64`'s [`TriMesh`]: a bounding-volume hierarchy over the
+//! triangles, the closest point on the surface, and the inside test by angle-weighted
+//! pseudo-normals (Bærentzen and Aanæs 2005), which is exact for a closed, consistently wound
+//! mesh.
+//!
+//! **Closed and open meshes.** A mesh is *closed* when, after merging vertices with identical
+//! coordinates, every edge is shared by exactly two triangles that run it in opposite
+//! directions. A closed mesh is a solid: its triangles are turned to face outwards (whatever
+//! the file's winding), a point inside it is pushed out through the nearest surface, and the
+//! signed distance is negative inside. Any other mesh (a sheet, a terrain, a mesh with holes or
+//! inconsistent winding) is *open*: it is a two-sided surface of no thickness, a particle rests
+//! on whichever side it comes from, and there is no inside.
+//!
+//! **Thin parts.** A particle's side is taken from where it was at the start of the step: if
+//! the straight move from its previous position to its new one crosses the surface (a ray cast
+//! through the hierarchy, done only when the surface is within the move's length of the new
+//! position), the particle is put back on the side it came from. So a fast particle cannot pass
+//! through a sheet, or through a closed mesh thinner than its move, between two steps; and since
+//! a particle only gets inside by crossing the surface, a particle farther from the surface than
+//! its radius plus its move needs no inside test (the contact query stops there).
+
+use super::SurfaceMesh;
+use super::motion::rotation_matrix;
+use crate::error::ConfigError;
+use crate::math::{Real, Vec3};
+use glam::DMat3;
+use parry3d_f64::math::Vector as PVec;
+use parry3d_f64::query::{PointQueryWithLocation, Ray, RayCast};
+use parry3d_f64::shape::{TriMesh, TriMeshFlags};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Largest scale of a mesh (a metre-sized model scaled to ten kilometres).
+pub const MAX_SCALE: Real = 1e4;
+
+/// Why a mesh cannot be used.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MeshError {
+    /// No triangles at all.
+    #[error("the mesh has no faces (it needs at least one triangle)")]
+    NoFaces,
+    /// A vertex with a NaN or infinite coordinate.
+    #[error("vertex {index} (counting from 1) is not finite: [{x}, {y}, {z}]")]
+    NonFiniteVertex {
+        /// Vertex number, from 1 as in OBJ files.
+        index: usize,
+        /// Its coordinates.
+        x: Real,
+        /// y coordinate.
+        y: Real,
+        /// z coordinate.
+        z: Real,
+    },
+    /// A triangle naming a vertex that does not exist.
+    #[error(
+        "triangle {triangle} (counting from 1) uses vertex {index} (counting from 1), but the \
+         mesh has {count} vertices"
+    )]
+    IndexOutOfRange {
+        /// Triangle number, from 1.
+        triangle: usize,
+        /// The vertex it names, from 1.
+        index: u64,
+        /// Number of vertices.
+        count: usize,
+    },
+    /// Every triangle has zero area.
+    #[error("every triangle of the mesh has zero area")]
+    Degenerate,
+}
+
+/// A triangle-mesh collider.
+#[derive(Clone)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(try_from = "MeshRepr", into = "MeshRepr")
+)]
+pub struct Mesh {
+    /// The mesh file it was read from, for descriptions (the scene reader gives the absolute
+    /// path; the core reads no files).
+    pub file: String,
+    /// Where the model's origin goes, m. Default (0, 0, 0); each component in [-1e6, 1e6].
+    pub position: Vec3,
+    /// Rotation about x, y, z, applied in that order, degrees. Default (0, 0, 0); each
+    /// component in [-1e6, 1e6].
+    pub rotation: Vec3,
+    /// Uniform scale of the model (its units to metres). Default 1; range (0, 1e4].
+    pub scale: Real,
+    /// The model's vertices as given (before scale, rotation and position).
+    vertices: Arc<Vec<Vec3>>,
+    /// The triangles as given, indices into `vertices`.
+    triangles: Arc<Vec<[u32; 3]>>,
+    /// The query structure, in the model frame scaled to metres (rotation and position apart).
+    query: Arc<TriMesh>,
+    /// Whether the mesh is a closed, consistently wound solid (see the module docs).
+    closed: bool,
+    /// `rotation` as a matrix.
+    matrix: DMat3,
+}
+
+impl std::fmt::Debug for Mesh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Mesh")
+            .field("file", &self.file)
+            .field("position", &self.position)
+            .field("rotation", &self.rotation)
+            .field("scale", &self.scale)
+            .field("vertices", &self.vertices.len())
+            .field("triangles", &self.triangles.len())
+            .field("closed", &self.closed)
+            .finish()
+    }
+}
+
+impl PartialEq for Mesh {
+    fn eq(&self, o: &Self) -> bool {
+        self.file == o.file
+            && self.position == o.position
+            && self.rotation == o.rotation
+            && self.scale == o.scale
+            && self.vertices == o.vertices
+            && self.triangles == o.triangles
+    }
+}
+
+fn pv(v: Vec3) -> PVec {
+    PVec::new(v.x, v.y, v.z)
+}
+
+fn gv(v: PVec) -> Vec3 {
+    Vec3::new(v.x, v.y, v.z)
+}
+
+impl Mesh {
+    /// A mesh collider from a model's `vertices` and `triangles` (indices from 0), placed by
+    /// `position` (m), `rotation` (degrees about x, y, z in that order) and `scale`. `file`
+    /// only names it. Refuses meshes with no faces, non-finite vertices, indices out of range
+    /// or only zero-area triangles; the placement is checked by [`super::Collider::validate`]
+    /// (a scale of 0 or less gives a mesh of no size, refused there).
+    pub fn new(
+        file: impl Into<String>,
+        vertices: Vec<Vec3>,
+        triangles: Vec<[u32; 3]>,
+        position: Vec3,
+        rotation: Vec3,
+        scale: Real,
+    ) -> Result<Self, MeshError> {
+        if triangles.is_empty() {
+            return Err(MeshError::NoFaces);
+        }
+        if let Some((i, v)) = vertices.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(MeshError::NonFiniteVertex {
+                index: i + 1,
+                x: v.x,
+                y: v.y,
+                z: v.z,
+            });
+        }
+        for (t, tri) in triangles.iter().enumerate() {
+            if let Some(&i) = tri.iter().find(|&&i| i as usize >= vertices.len()) {
+                return Err(MeshError::IndexOutOfRange {
+                    triangle: t + 1,
+                    index: u64::from(i) + 1,
+                    count: vertices.len(),
+                });
+            }
+        }
+        // A scale that is not usable still builds (validate names it); the query uses 1.
+        let s = if scale.is_finite() && scale > 0.0 {
+            scale
+        } else {
+            1.0
+        };
+        let (query, closed) = build_query(&vertices, &triangles, s)?;
+        Ok(Self {
+            file: file.into(),
+            position,
+            rotation,
+            scale,
+            vertices: Arc::new(vertices),
+            triangles: Arc::new(triangles),
+            query: Arc::new(query),
+            closed,
+            matrix: rotation_matrix(rotation),
+        })
+    }
+
+    /// The model's vertices as given (before scale, rotation and position).
+    pub fn vertices(&self) -> &[Vec3] {
+        &self.vertices
+    }
+
+    /// The model's triangles, indices into [`Mesh::vertices`].
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// Whether the mesh is a closed solid (see the module docs).
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// A world point in the query frame.
+    #[inline]
+    fn local(&self, p: Vec3) -> Vec3 {
+        self.matrix.transpose() * (p - self.position)
+    }
+
+    /// Signed distance of `p` from the surface (m; negative inside a closed mesh) and the unit
+    /// normal pointing from the surface towards `p` (out of a closed mesh).
+    pub fn distance(&self, p: Vec3) -> (Real, Vec3) {
+        let q = self.local(p);
+        let (proj, (tri, _)) = self
+            .query
+            .project_local_point_and_get_location(pv(q), false);
+        let (d, n) = self.signed(q, gv(proj.point), proj.is_inside, tri);
+        (d, self.matrix * n)
+    }
+
+    /// The contact query of a particle moving from `prev` to `p` (world, m): `None` when the
+    /// surface is farther than `reach` (m) from `p` and the move crossed no surface; else the
+    /// signed distance of `p` on the side the particle came from and the unit normal towards
+    /// that side (see the module docs).
+    pub fn contact(&self, prev: Vec3, p: Vec3, reach: Real) -> Option<(Real, Vec3)> {
+        let q = self.local(p);
+        let q0 = self.local(prev);
+        let step = q - q0;
+        let len = step.length();
+        let (proj, (tri, _)) = self
+            .query
+            .project_local_point_and_get_location_with_max_dist(pv(q), false, reach.max(len))?;
+        let c = gv(proj.point);
+        if len > 0.0 && (q - c).length() <= len {
+            // The surface is within the move: did the move cross it?
+            let ray = Ray::new(pv(q0), pv(step));
+            if let Some(hit) = self.query.cast_local_ray_and_get_normal(&ray, 1.0, false) {
+                let at = q0 + step * hit.time_of_impact;
+                let face = self.face_normal(hit.subshape);
+                let from = (q0 - at).dot(face);
+                // An open surface stops the particle on the side it came from; a closed one
+                // only when it came from outside (a particle leaving a solid is let out).
+                let side = if from > 0.0 {
+                    Some(face)
+                } else if from < 0.0 && !self.closed {
+                    Some(-face)
+                } else {
+                    None
+                };
+                if let Some(n) = side {
+                    return Some(((q - at).dot(n), self.matrix * n));
+                }
+            }
+        }
+        let (d, n) = self.signed(q, c, proj.is_inside, tri);
+        Some((d, self.matrix * n))
+    }
+
+    /// Signed distance and normal of the query point `q` from its closest surface point `c` on
+    /// triangle `tri`, `inside` by the pseudo-normal test.
+    #[inline]
+    fn signed(&self, q: Vec3, c: Vec3, inside: bool, tri: u32) -> (Real, Vec3) {
+        let diff = q - c;
+        let dist = diff.length();
+        let inside = self.closed && inside;
+        if dist <= 1e-12 * (1.0 + c.abs().max_element()) {
+            // On the surface: the face's normal (out of a closed mesh).
+            return (0.0, self.face_normal(tri));
+        }
+        let n = diff / dist;
+        if inside { (-dist, -n) } else { (dist, n) }
+    }
+
+    /// Unit normal of query triangle `tri` (outwards on a closed mesh).
+    fn face_normal(&self, tri: u32) -> Vec3 {
+        self.query
+            .triangle(tri)
+            .normal()
+            .map_or(Vec3::Y, |n| gv(n).normalize_or(Vec3::Y))
+    }
+
+    /// The mesh in the world for drawing: placed vertices, area-weighted vertex normals.
+    pub fn surface_mesh(&self) -> SurfaceMesh {
+        let positions: Vec<Vec3> = self
+            .vertices
+            .iter()
+            .map(|v| self.position + self.matrix * (*v * self.scale))
+            .collect();
+        let mut triangles = self.triangles.to_vec();
+        // Draw a closed mesh wound outwards, as the query uses it.
+        let flip = self.closed && signed_volume(&positions, &triangles) < 0.0;
+        if flip {
+            for t in &mut triangles {
+                t.swap(1, 2);
+            }
+        }
+        let mut normals = vec![Vec3::ZERO; positions.len()];
+        for t in &triangles {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            let face = (b - a).cross(c - a);
+            for &i in t {
+                normals[i as usize] += face;
+            }
+        }
+        for n in &mut normals {
+            *n = n.normalize_or(Vec3::Y);
+        }
+        SurfaceMesh {
+            positions,
+            normals,
+            triangles,
+        }
+    }
+
+    pub(crate) fn validate(&self, key: &dyn Fn(&str) -> String) -> Result<(), ConfigError> {
+        super::require_position(key("position"), self.position)?;
+        let r = self.rotation;
+        if !(r.is_finite() && r.abs().max_element() <= 1e6) {
+            return Err(ConfigError::OutOfRange {
+                key: key("rotation"),
+                value: format!("[{}, {}, {}]", r.x, r.y, r.z),
+                range: "each component in [-1e6, 1e6] degrees".into(),
+            });
+        }
+        let s = self.scale;
+        if !(s.is_finite() && s > 0.0 && s <= MAX_SCALE) {
+            return Err(ConfigError::OutOfRange {
+                key: key("scale"),
+                value: s.to_string(),
+                range: format!("(0, {MAX_SCALE:e}]"),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Six times the signed volume enclosed by `triangles` (positive when wound outwards).
+fn signed_volume(positions: &[Vec3], triangles: &[[u32; 3]]) -> Real {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            a.dot(b.cross(c))
+        })
+        .sum()
+}
+
+/// The query mesh (vertices scaled by `scale`, duplicates merged, zero-area triangles dropped,
+/// a closed mesh wound outwards) and whether it is closed.
+fn build_query(
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    scale: Real,
+) -> Result<(TriMesh, bool), MeshError> {
+    // Merge vertices with identical coordinates, so that seams of an OBJ file (a vertex repeated
+    // for its texture coordinates) do not open the surface.
+    let mut index_of: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut merged: Vec<Vec3> = Vec::new();
+    let remap: Vec<u32> = vertices
+        .iter()
+        .map(|v| {
+            let p = *v * scale;
+            *index_of
+                .entry([p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+                .or_insert_with(|| {
+                    merged.push(p);
+                    (merged.len() - 1) as u32
+                })
+        })
+        .collect();
+    let mut tris: Vec<[u32; 3]> = triangles
+        .iter()
+        .map(|t| t.map(|i| remap[i as usize]))
+        .filter(|t| {
+            let [a, b, c] = t.map(|i| merged[i as usize]);
+            (b - a).cross(c - a).length_squared() > 0.0
+        })
+        .collect();
+    if tris.is_empty() {
+        return Err(MeshError::Degenerate);
+    }
+    // Closed: each directed edge once, and its reverse once.
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in &tris {
+        for k in 0..3 {
+            *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    let closed = edges
+        .iter()
+        .all(|(&(a, b), &count)| count == 1 && edges.get(&(b, a)) == Some(&1));
+    if closed && signed_volume(&merged, &tris) < 0.0 {
+        for t in &mut tris {
+            t.swap(1, 2);
+        }
+    }
+    let flags = if closed {
+        TriMeshFlags::ORIENTED
+    } else {
+        TriMeshFlags::empty()
+    };
+    let points = merged.into_iter().map(pv).collect();
+    TriMesh::with_flags(points, tris, flags)
+        .map(|m| (m, closed))
+        .map_err(|_| MeshError::Degenerate)
+}
+
+/// `run.json`'s form of a mesh: its placement and the model's triangles (so a run folder can
+/// be drawn without the scene's files).
+#[cfg(feature = "serde")]
+#[derive(serde::Serialize, serde::Deserialize)]
+struct MeshRepr {
+    file: String,
+    position: [Real; 3],
+    rotation: [Real; 3],
+    scale: Real,
+    vertices: Vec<[Real; 3]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+#[cfg(feature = "serde")]
+impl TryFrom<MeshRepr> for Mesh {
+    type Error = MeshError;
+    fn try_from(r: MeshRepr) -> Result<Self, MeshError> {
+        Mesh::new(
+            r.file,
+            r.vertices.into_iter().map(Vec3::from).collect(),
+            r.triangles,
+            r.position.into(),
+            r.rotation.into(),
+            r.scale,
+        )
+    }
+}
+
+#[cfg(feature = "serde")]
+impl From<Mesh> for MeshRepr {
+    fn from(m: Mesh) -> Self {
+        Self {
+            file: m.file,
+            position: m.position.to_array(),
+            rotation: m.rotation.to_array(),
+            scale: m.scale,
+            vertices: m.vertices.iter().map(|v| v.to_array()).collect(),
+            triangles: m.triangles.to_vec(),
+        }
+    }
+}
