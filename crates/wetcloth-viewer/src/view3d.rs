@@ -82,6 +82,7 @@ impl CallbackTrait for SceneCallback {
             solids: &f.scene.1,
             camera: f.camera.to_camera(),
             wetness: f.wetness,
+            tint: None,
         };
         renderer.prepare(device, queue, &scene, viewport);
         Vec::new()
