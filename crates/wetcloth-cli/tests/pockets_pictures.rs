@@ -294,3 +294,33 @@ fn render_pockets_is_refused_without_pockets_csv() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("above 0"), "{e}");
 }
+
+#[test]
+fn render_pockets_refuses_a_damaged_label_file_naming_file_and_line() {
+    let run = run_scene("damaged", TWO_POCKETS);
+    let labels = run.join("frames/frame_0001.pockets");
+    fs::write(&labels, "wetcloth pocket labels 1\nparticles 441\nx 441\n").unwrap();
+    let o = render(&run, "pics", &["--pockets", "--frames", "1"]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("frame_0001.pockets:3") && e.contains("pocket id \"x\""),
+        "{e}"
+    );
+    // A label file for another cloth size.
+    fs::write(&labels, "wetcloth pocket labels 1\nparticles 4\n- 4\n").unwrap();
+    let o = render(&run, "pics", &["--pockets", "--frames", "1"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("labels 4 particles") && e.contains("441 vertices"),
+        "{e}"
+    );
+    // A missing one.
+    fs::remove_file(&labels).unwrap();
+    let o = render(&run, "pics", &["--pockets", "--frames", "1"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("frame_0001.pockets") && e.contains("missing"),
+        "{e}"
+    );
+}
