@@ -151,28 +151,34 @@ impl ViewerApp {
             ui.label(RichText::new("no sealed pocket").weak());
             return;
         }
-        egui::Grid::new("pockets")
-            .num_columns(7)
-            .spacing([10.0, 2.0])
-            .striped(true)
+        // In a scroll area of its own: the table must not widen the side panel (the 3D view
+        // would change size as the numbers do).
+        egui::ScrollArea::horizontal()
+            .id_salt("pockets-scroll")
             .show(ui, |ui| {
-                for h in ["id", "V cm³", "N cm³", "P kPa", "ΔP Pa", "A cm²", "n"] {
-                    ui.label(RichText::new(h).small().strong());
-                }
-                ui.end_row();
-                for r in rows.iter().take(40) {
-                    let cell = |ui: &mut egui::Ui, t: String| {
-                        ui.label(RichText::new(t).small().monospace());
-                    };
-                    cell(ui, r.id.to_string());
-                    cell(ui, format!("{:.2}", r.volume_cm3));
-                    cell(ui, format!("{:.2}", r.amount_cm3));
-                    cell(ui, format!("{:.3}", r.pressure * 1e-3));
-                    cell(ui, format!("{:+.1}", r.delta_p));
-                    cell(ui, format!("{:.1}", r.area_cm2));
-                    cell(ui, r.particles.to_string());
-                    ui.end_row();
-                }
+                egui::Grid::new("pockets")
+                    .num_columns(7)
+                    .spacing([10.0, 2.0])
+                    .striped(true)
+                    .show(ui, |ui| {
+                        for h in ["id", "V cm³", "N cm³", "P kPa", "ΔP Pa", "A cm²", "n"] {
+                            ui.label(RichText::new(h).small().strong());
+                        }
+                        ui.end_row();
+                        for r in rows.iter().take(40) {
+                            let cell = |ui: &mut egui::Ui, t: String| {
+                                ui.label(RichText::new(t).small().monospace());
+                            };
+                            cell(ui, r.id.to_string());
+                            cell(ui, format!("{:.2}", r.volume_cm3));
+                            cell(ui, format!("{:.2}", r.amount_cm3));
+                            cell(ui, format!("{:.3}", r.pressure * 1e-3));
+                            cell(ui, format!("{:+.1}", r.delta_p));
+                            cell(ui, format!("{:.1}", r.area_cm2));
+                            cell(ui, r.particles.to_string());
+                            ui.end_row();
+                        }
+                    });
             });
         if rows.len() > 40 {
             ui.label(RichText::new(format!("… and {} more", rows.len() - 40)).weak());
