@@ -10,6 +10,7 @@ mod error;
 mod estimate;
 mod export;
 mod interrupt;
+mod pocket_labels;
 mod render;
 mod run;
 mod threads;

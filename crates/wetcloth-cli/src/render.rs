@@ -24,7 +24,11 @@ pub fn render(opts: &RenderOptions, quiet: bool) -> Result<(), CliError> {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
     })
-    .map_err(|e| CliError::Render(e.to_string()))?;
+    .map_err(|e| match e {
+        // Asking for pockets of a run that has none is bad input (exit 2).
+        e @ wetcloth_render::RenderError::NoPockets(_) => CliError::Input(e.to_string()),
+        e => CliError::Render(e.to_string()),
+    })?;
     bar.finish_and_clear();
     if !quiet {
         println!("{summary}");

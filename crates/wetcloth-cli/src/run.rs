@@ -183,6 +183,7 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
             pockets_csv
                 .write_frame(k, sim.time(), &sim.pocket_reports())
                 .map_err(CliError::output(&pockets_path))?;
+            crate::pocket_labels::write_frame(&frames_dir, sim, k)?;
             if k == 0 {
                 wetcloth_export::write_rest_obj(&dir).map_err(|e| match e {
                     wetcloth_export::ExportError::Output { path, source } => {

@@ -5,6 +5,8 @@
 //! - [`write_obj`]: one frame of the cloth as a Wavefront OBJ mesh (Y-up, metres, with UVs and
 //!   normals; vertex `k` is particle `k` in every frame, so Blender can import a sequence);
 //! - [`MetricsCsv`]: `metrics.csv`, one row per written frame, columns [`CSV_HEADER`];
+//! - [`write_pocket_labels`] and [`parse_pocket_labels`]: `frames/frame_NNNN.pockets`, each
+//!   particle's sealed air pocket in one frame (pockets air model; see the `labels` format);
 //! - [`RunInfo`] and [`write_run_json`]: `run.json`, what a renderer needs to know about the
 //!   run (the cloth's layout, the colliders, the grabbed particles, the frame count);
 //! - caches of a whole run for animation packages ([`cache`]): PC2 and MDD point caches
@@ -23,6 +25,7 @@ mod atomic;
 pub mod cache;
 mod csv;
 mod export;
+mod labels;
 mod obj;
 mod params;
 pub mod pointcache;
@@ -35,6 +38,10 @@ pub use cache::{CacheFormat, CacheSpec, CacheWriter, Frame};
 pub use csv::{CSV_HEADER, MetricsCsv, POCKETS_CSV_HEADER, PocketsCsv, csv_header};
 pub use export::{
     ExportError, ExportJob, REST_OBJ, RunFolder, export_run, read_run_folder, write_rest_obj,
+};
+pub use labels::{
+    LabelsError, NO_POCKET, POCKET_LABELS_MAGIC, is_pocket_labels_file_name, parse_pocket_labels,
+    particle_pocket_ids, pocket_labels_file_name, write_pocket_labels,
 };
 pub use obj::write_obj;
 pub use params::{ParamValue, SceneParam, scene_params};

@@ -66,6 +66,13 @@ pub enum RenderError {
         /// Frames found.
         count: usize,
     },
+    /// `--pockets` on a run folder without `pockets.csv`.
+    #[error(
+        "no pockets.csv in {}: --pockets needs the pocket pressures a run of this version \
+         writes (run the scene again with `wetcloth run`)",
+        .0.display()
+    )]
+    NoPockets(PathBuf),
     /// An option out of its range.
     #[error("{0}")]
     Option(String),

@@ -9,7 +9,8 @@
 //! - [`SceneView`]: what one frame shows (cloth mesh, table plane, particles, pins, solids).
 //! - [`ClothRenderer`]: `new` once, then `prepare` + `paint` per frame.
 //! - [`Offscreen`]: a headless device rendering [`SceneView`]s into images.
-//! - [`render_run`]: a run directory's frames to PNGs (and an MP4 when ffmpeg is installed).
+//! - [`render_run`]: a run directory's frames to PNGs (and an MP4 when ffmpeg is installed);
+//!   with `pockets`, the air pockets tinted by their pressure ([`pressure_colour`]).
 //! - [`plot::plot_run`]: a run's `metrics.csv` to a chart.
 //!
 //! The `wgpu` version is the one egui-wgpu 0.37 uses (wgpu 30), re-exported as [`wgpu`].
@@ -31,9 +32,10 @@ pub use renderer::{
     ClothRenderer, GroundPlane, KEY_LIGHT_DIR, Material, MeshView, SceneView, srgb_to_linear,
 };
 pub use run::{
-    CameraSpec, FrameSelection, ImageSize, ObjMesh, RenderOptions, RenderSummary, RunCheck,
-    RunInfo, VideoOutcome, check_run, ffmpeg_available, list_frames, parse_wetness, read_obj,
-    read_run_info, render_run, render_run_with_progress,
+    CameraSpec, FrameSelection, ImageSize, ObjMesh, PocketPressures, RenderOptions, RenderSummary,
+    RunCheck, RunInfo, VideoOutcome, check_run, draw_legend, ffmpeg_available, list_frames,
+    parse_pressure_range, parse_wetness, pressure_colour, read_obj, read_run_info, render_run,
+    render_run_with_progress,
 };
 pub use wgpu;
 

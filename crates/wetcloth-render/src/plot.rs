@@ -221,7 +221,7 @@ pub fn plot_size() -> (u32, u32) {
 
 static FONT: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     FONT.call_once(|| {
         let bytes: &'static [u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
         // The bundled font is known to parse; a failure would show as missing text only.
@@ -390,12 +390,13 @@ mod tests {
             let v = 2e-4 * (1.0 - (-t).exp());
             let p = 101_325.0 * 4e-4 / (4e-4 + v);
             s += &format!(
-                "{f},{t},{v},{p},{},{},{},{},{}\n",
+                "{f},{t},{v},{p},{},{},{},{},{},{},1\n",
                 1e-4 * (3.0 * t).sin().abs(),
                 0.02 * t,
                 1.0 - 0.3 * t.min(1.0),
                 0.01 + 0.05 * t,
-                0.5 * t
+                0.5 * t,
+                4e-4
             );
         }
         s
@@ -457,7 +458,8 @@ mod tests {
 
         let e = parse_metrics(&format!("{}\n0,1\n", COLUMNS.join(",")), path).unwrap_err();
         assert!(
-            e.to_string().contains(":2: 2 fields, the header has 9"),
+            e.to_string()
+                .contains(&format!(":2: 2 fields, the header has {}", COLUMNS.len())),
             "{e}"
         );
 
@@ -488,7 +490,7 @@ mod tests {
     fn csv_with(times: &[&str], value: &str) -> String {
         let mut s = format!("{}\n", COLUMNS.join(","));
         for (f, t) in times.iter().enumerate() {
-            s += &format!("{f},{t},{}\n", [value; 7].join(","));
+            s += &format!("{f},{t},{}\n", [value; COLUMNS.len() - 2].join(","));
         }
         s
     }

@@ -65,6 +65,10 @@ pub struct SceneView<'a> {
     pub camera: Camera,
     /// 0 dry .. 1 wet: wet cloth is darker and glossier.
     pub wetness: f32,
+    /// A colour per cloth vertex over the cloth's own (linear RGB and a weight 0..1: 0 keeps
+    /// the cloth's colour, 1 replaces it), e.g. the air pockets tinted by their pressure. Used
+    /// only when it has one entry per cloth vertex.
+    pub tint: Option<&'a [[f32; 4]]>,
 }
 
 impl<'a> SceneView<'a> {
@@ -80,6 +84,7 @@ impl<'a> SceneView<'a> {
             solids: &[],
             camera,
             wetness: 1.0,
+            tint: None,
         }
     }
 }
@@ -183,12 +188,13 @@ struct MaterialUniform {
     spec: [f32; 4],
 }
 
-/// One mesh vertex: position and normal.
+/// One mesh vertex: position, normal and tint (linear RGB, weight).
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct Vertex {
     pos: [f32; 3],
     normal: [f32; 3],
+    tint: [f32; 4],
 }
 
 /// One particle dot: centre and kind (0 particle, 1 cursor, 2 pin).
@@ -449,7 +455,7 @@ impl ClothRenderer {
         let mesh_buffers = [Some(wgpu::VertexBufferLayout {
             array_stride: size_of::<Vertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x4],
         })];
         let dot_buffers = [Some(wgpu::VertexBufferLayout {
             array_stride: size_of::<Dot>() as u64,
@@ -644,12 +650,15 @@ impl ClothRenderer {
             computed = smooth_normals(positions, scene.cloth.indices);
             &computed
         };
+        let tints = scene.tint.filter(|t| t.len() == positions.len());
         let vertices: Vec<Vertex> = positions
             .iter()
             .zip(normals)
-            .map(|(p, n)| Vertex {
+            .enumerate()
+            .map(|(k, (p, n))| Vertex {
                 pos: *p,
                 normal: *n,
+                tint: tints.map_or([0.0; 4], |t| t[k]),
             })
             .collect();
         let n = positions.len() as u32;
@@ -679,7 +688,11 @@ impl ClothRenderer {
             }
             let v: Vec<Vertex> = v
                 .into_iter()
-                .map(|[pos, normal]| Vertex { pos, normal })
+                .map(|[pos, normal]| Vertex {
+                    pos,
+                    normal,
+                    tint: [0.0; 4],
+                })
                 .collect();
             self.solid_vertices
                 .write(device, queue, bytemuck::cast_slice(&v));
@@ -727,6 +740,7 @@ impl ClothRenderer {
             let corner = |u: f32, v: f32| Vertex {
                 pos: (focus + (t1 * u + t2 * v) * r).to_array(),
                 normal: normal.to_array(),
+                tint: [0.0; 4],
             };
             let quad = [
                 corner(-1.0, -1.0),

@@ -154,6 +154,7 @@ fn fs_background(in: BgOut) -> @location(0) vec4<f32> {
 struct MeshIn {
     @location(0) pos: vec3<f32>,
     @location(1) normal: vec3<f32>,
+    @location(2) tint: vec4<f32>, // rgb: linear colour; a: weight over the material's albedo
 }
 
 struct MeshOut {
@@ -161,6 +162,7 @@ struct MeshOut {
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) clip_yw: vec2<f32>, // clip-space y and w, for the backdrop behind the table
+    @location(3) tint: vec4<f32>,
 }
 
 @vertex
@@ -170,6 +172,7 @@ fn vs_mesh(in: MeshIn) -> MeshOut {
     o.world = in.pos;
     o.normal = in.normal;
     o.clip_yw = o.clip.yw;
+    o.tint = in.tint;
     return o;
 }
 
@@ -188,6 +191,7 @@ fn fs_mesh(in: MeshOut, @builtin(front_facing) front: bool) -> @location(0) vec4
 
     let wet = clamp(g.params.x, 0.0, 1.0) * mat.spec.y;
     var albedo = select(mat.back.rgb, mat.front.rgb, front);
+    albedo = mix(albedo, in.tint.rgb, clamp(in.tint.a, 0.0, 1.0));
     albedo = pow(albedo, vec3<f32>(1.0 + 0.3 * wet)) * (1.0 - 0.3 * wet);
     var s: Surface;
     s.albedo = albedo;

@@ -14,6 +14,8 @@
 //! - Orbit / pan / zoom camera, pause and single step, a shortcut for every button, live
 //!   readouts (simulated time, real-time factor, steps/s, frame rate, bubble volume and
 //!   pressure, grab force) and a plot of pressure and volume.
+//! - The air pockets: each sealed pocket tinted by its pressure (a toggle, key T) and listed
+//!   with its volume, air, pressure, area and particles ([`pockets`]).
 //! - Parameters (air amount, stiffnesses, friction, damping, time step, resolution), opening
 //!   another scene file, and recording the session as a run folder (`frames/frame_NNNN.obj` +
 //!   `metrics.csv`) that `wetcloth render` and Blender read.
@@ -44,6 +46,7 @@
 
 pub mod camera;
 pub mod pick;
+pub mod pockets;
 pub mod record;
 pub mod runner;
 pub mod script;

@@ -102,6 +102,11 @@ pub struct Snapshot {
     pub error: Option<String>,
     /// The last command that could not be carried out, and why (the run goes on).
     pub notice: Option<(u64, String)>,
+    /// The sealed air pockets (`pockets.csv`'s rows; the thesis' bubble is pocket 0).
+    pub pockets: Vec<wetcloth::air::PocketReport>,
+    /// Each particle's pocket id, or `wetcloth_export::NO_POCKET`; `None` with the thesis air
+    /// model (its bubble lies under the whole cloth).
+    pub pocket_of: Option<Vec<u32>>,
 }
 
 /// Handle to the simulation thread.
@@ -241,6 +246,8 @@ impl State {
             held: interactive_grabs(&self.sim),
             error: self.error.clone(),
             notice: self.notice.clone(),
+            pockets: sim.pocket_reports(),
+            pocket_of: wetcloth_export::particle_pocket_ids(sim),
         }
     }
 

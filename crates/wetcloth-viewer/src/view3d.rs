@@ -31,6 +31,8 @@ pub(crate) struct Frame {
     pub pinned: Vec<usize>,
     pub camera: OrbitCamera,
     pub wetness: f32,
+    /// A tint per cloth vertex (the air pockets by pressure), or none.
+    pub tint: Option<Vec<[f32; 4]>>,
 }
 
 /// Creates the renderer for the window's surface and keeps it in egui's callback resources.
@@ -82,6 +84,7 @@ impl CallbackTrait for SceneCallback {
             solids: &f.scene.1,
             camera: f.camera.to_camera(),
             wetness: f.wetness,
+            tint: f.tint.as_deref(),
         };
         renderer.prepare(device, queue, &scene, viewport);
         Vec::new()

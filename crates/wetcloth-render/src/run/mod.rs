@@ -1,6 +1,7 @@
 //! Rendering a run directory (written by `wetcloth run`) into PNG frames and an MP4.
 //!
-//! Reads `RUN_DIR/frames/frame_NNNN.obj` and `RUN_DIR/run.json`, writes
+//! Reads `RUN_DIR/frames/frame_NNNN.obj` and `RUN_DIR/run.json` (with `--pockets` also
+//! `pockets.csv`, `scene.toml` and `frames/frame_NNNN.pockets`, see `pockets`), writes
 //! `OUT/frame_NNNN.png` (default `OUT` = `RUN_DIR/render/`) and, when `ffmpeg` is on the PATH,
 //! `OUT/<name>.mp4` (H.264, yuv420p, at the run's frame rate divided by the frame step).
 //!
@@ -12,6 +13,7 @@ mod frames;
 mod framing;
 mod input;
 mod options;
+mod pockets;
 mod video;
 
 use std::fmt;
@@ -21,7 +23,8 @@ use std::time::Instant;
 pub use frames::{FrameSelection, list_frames};
 pub use framing::CameraSpec;
 pub use input::{ObjMesh, RunInfo, read_obj, read_run_info};
-pub use options::{ImageSize, RenderOptions, parse_wetness};
+pub use options::{ImageSize, RenderOptions, parse_pressure_range, parse_wetness};
+pub use pockets::{PocketPressures, draw_legend, pressure_colour};
 pub use video::ffmpeg_available;
 
 use crate::camera::Camera;
@@ -168,6 +171,22 @@ pub fn render_run_with_progress(
             opts.wetness
         )));
     }
+    if let Some(r) = opts.pressure_range
+        && !(r.is_finite() && r > 0.0)
+    {
+        return Err(RenderError::Option(format!(
+            "pressure range = {r} Pa is not allowed: expected a positive number"
+        )));
+    }
+    // With --pockets: the pockets' pressures, one colour range for every frame.
+    let pockets = if opts.pockets {
+        let p = PocketPressures::read(run_dir)?;
+        let numbers: Vec<u64> = frames.iter().map(|(n, _)| *n).collect();
+        let range = p.range(&numbers, opts.pressure_range);
+        Some((p, range))
+    } else {
+        None
+    };
     let mut check = FrameCheck::new(info.as_ref());
 
     // The scene around the cloth: without run.json, the thesis' table.
@@ -254,6 +273,10 @@ pub fn render_run_with_progress(
                 Some((g, s)) => (*g, s.as_slice()),
                 None => (ground, solids.as_slice()),
             };
+            let tint = match &pockets {
+                Some((p, range)) => Some(p.tints(*n, mesh.positions.len(), *range)?),
+                None => None,
+            };
             let scene = SceneView {
                 cloth: MeshView {
                     positions: &mesh.positions,
@@ -268,8 +291,12 @@ pub fn render_run_with_progress(
                 solids,
                 camera,
                 wetness: opts.wetness,
+                tint: tint.as_deref(),
             };
-            let img = offscreen.render(&scene)?;
+            let mut img = offscreen.render(&scene)?;
+            if let Some((p, range)) = &pockets {
+                pockets::draw_legend(&mut img, *range, p.atmosphere)?;
+            }
             if let Some(enc) = encoder.as_mut() {
                 enc.push(img.as_raw())?;
             }

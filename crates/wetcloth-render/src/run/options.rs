@@ -102,6 +102,27 @@ pub struct RenderOptions {
         )
     )]
     pub show_grabs: bool,
+    /// Tint the cloth over each sealed air pocket by the pocket's pressure (blue below
+    /// atmospheric, red above; needs the run's pockets.csv), with a colour bar.
+    #[cfg_attr(feature = "clap", arg(long))]
+    pub pockets: bool,
+    /// With --pockets: the pressure difference from atmospheric at which the colours saturate,
+    /// Pa (default: 90 % of the pockets' differences over the rendered frames lie within it).
+    #[cfg_attr(
+        feature = "clap",
+        arg(long, value_name = "PA", value_parser = parse_pressure_range, requires = "pockets")
+    )]
+    pub pressure_range: Option<f64>,
+}
+
+/// Parses `--pressure-range`: a positive, finite pressure difference in Pa.
+pub fn parse_pressure_range(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 1e9 => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not allowed: expected a pressure difference in Pa, above 0 and at most 1e9"
+        )),
+    }
 }
 
 /// Parses `--wetness`: a number from 0 (dry) to 1 (wet); NaN and values outside are refused.
@@ -130,6 +151,8 @@ impl RenderOptions {
             wetness: 1.0,
             video: true,
             show_grabs: true,
+            pockets: false,
+            pressure_range: None,
         }
     }
 

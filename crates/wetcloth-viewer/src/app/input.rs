@@ -49,6 +49,7 @@ impl ViewerApp {
                 Key::Space => self.toggle_pause(),
                 Key::S | Key::Period => self.step_frame(),
                 Key::U => self.release_pins(),
+                Key::T => self.pocket_tint = !self.pocket_tint,
                 Key::C => self.toggle_record(),
                 Key::H | Key::F1 => self.show_help = !self.show_help,
                 Key::V => {

@@ -83,6 +83,8 @@ pub(crate) struct ViewerApp {
     final_screenshot: Option<PathBuf>,
     outcome: Arc<std::sync::Mutex<Outcome>>,
     closing: bool,
+    /// Whether the cloth over each air pocket is tinted by its pressure.
+    pocket_tint: bool,
 }
 
 /// Triangle indices of the current grid (they change only on a restart).
@@ -139,7 +141,6 @@ impl ViewerApp {
                 .scene_path
                 .map(|p| p.display().to_string())
                 .unwrap_or_default(),
-            snap,
             camera,
             pick_mode: true,
             mode: PointerMode::Idle,
@@ -173,6 +174,9 @@ impl ViewerApp {
             final_screenshot: opts.screenshot,
             outcome,
             closing: false,
+            // On for the pockets model; the thesis' bubble would tint the whole cloth.
+            pocket_tint: snap.config.air.model == wetcloth::params::AirModelKind::Pockets,
+            snap,
         })
     }
 
@@ -288,6 +292,10 @@ impl eframe::App for ViewerApp {
             .show(ui, |ui| {
                 egui::ScrollArea::vertical().show(ui, |ui| {
                     self.readouts(ui);
+                    ui.separator();
+                    egui::CollapsingHeader::new(RichText::new("Air pockets").heading())
+                        .default_open(true)
+                        .show(ui, |ui| self.pocket_panel(ui));
                     ui.separator();
                     egui::CollapsingHeader::new(RichText::new("Parameters").heading())
                         .default_open(true)

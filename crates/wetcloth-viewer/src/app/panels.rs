@@ -106,6 +106,7 @@ pub(crate) const HELP: &[(&str, &str)] = &[
     ("Space", "pause / resume"),
     ("S or .", "step one frame (1/60 s) while paused"),
     ("U", "release every pinned particle"),
+    ("T", "tint the air pockets by pressure on/off"),
     ("C", "start / stop recording to the run folder"),
     ("V", "reset the camera"),
     ("H or F1", "show / hide this help"),
@@ -121,3 +122,66 @@ pub(crate) const HELP: &[(&str, &str)] = &[
     ("Right drag / Shift + left drag", "pan"),
     ("Wheel", "zoom"),
 ];
+
+impl ViewerApp {
+    /// The air pockets: the tint toggle, its colour range, and one row per sealed pocket.
+    pub(super) fn pocket_panel(&mut self, ui: &mut egui::Ui) {
+        use crate::pockets::{colour_range, pocket_rows};
+        let s = std::sync::Arc::clone(&self.snap);
+        ui.checkbox(&mut self.pocket_tint, "Tint by pressure (T)")
+            .on_hover_text("blue below atmospheric pressure, red above");
+        if self.pocket_tint {
+            let range = colour_range(&s);
+            ui.horizontal(|ui| {
+                let swatch = |t: f64| {
+                    let [r, g, b] = wetcloth_render::pressure_colour(t)
+                        .map(|c| (c.clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0) as u8);
+                    Color32::from_rgb(r, g, b)
+                };
+                for t in [-1.0, -0.5, 0.0, 0.5, 1.0] {
+                    let (rect, _) =
+                        ui.allocate_exact_size(EVec2::new(14.0, 10.0), egui::Sense::hover());
+                    ui.painter().rect_filled(rect, 1.0, swatch(t));
+                }
+                ui.label(RichText::new(format!("±{range:.1} Pa")).small());
+            });
+        }
+        let rows = pocket_rows(&s);
+        if rows.is_empty() {
+            ui.label(RichText::new("no sealed pocket").weak());
+            return;
+        }
+        // In a scroll area of its own: the table must not widen the side panel (the 3D view
+        // would change size as the numbers do).
+        egui::ScrollArea::horizontal()
+            .id_salt("pockets-scroll")
+            .show(ui, |ui| {
+                egui::Grid::new("pockets")
+                    .num_columns(7)
+                    .spacing([10.0, 2.0])
+                    .striped(true)
+                    .show(ui, |ui| {
+                        for h in ["id", "V cm³", "N cm³", "P kPa", "ΔP Pa", "A cm²", "n"] {
+                            ui.label(RichText::new(h).small().strong());
+                        }
+                        ui.end_row();
+                        for r in rows.iter().take(40) {
+                            let cell = |ui: &mut egui::Ui, t: String| {
+                                ui.label(RichText::new(t).small().monospace());
+                            };
+                            cell(ui, r.id.to_string());
+                            cell(ui, format!("{:.2}", r.volume_cm3));
+                            cell(ui, format!("{:.2}", r.amount_cm3));
+                            cell(ui, format!("{:.3}", r.pressure * 1e-3));
+                            cell(ui, format!("{:+.1}", r.delta_p));
+                            cell(ui, format!("{:.1}", r.area_cm2));
+                            cell(ui, r.particles.to_string());
+                            ui.end_row();
+                        }
+                    });
+            });
+        if rows.len() > 40 {
+            ui.label(RichText::new(format!("… and {} more", rows.len() - 40)).weak());
+        }
+    }
+}

@@ -43,6 +43,9 @@ impl ViewerApp {
             pinned: self.pins.particles(),
             camera: self.camera,
             wetness: 1.0,
+            tint: self
+                .pocket_tint
+                .then(|| crate::pockets::pocket_tints(s, crate::pockets::colour_range(s))),
         };
         ui.painter().add(view3d::callback(rect, frame));
 
