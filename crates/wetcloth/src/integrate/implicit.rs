@@ -45,7 +45,7 @@ use crate::params::PressureForce;
 use crate::state::{Motion, State};
 
 /// Relative residual at which the conjugate gradient stops: `|r| <= CG_TOLERANCE |b|`.
-pub const CG_TOLERANCE: Real = 1e-9;
+pub const CG_TOLERANCE: Real = 1e-5;
 
 /// Most conjugate-gradient iterations per solve.
 pub const CG_MAX_ITERATIONS: usize = 4000;
@@ -61,6 +61,9 @@ enum Constraint {
     /// Its velocity along the unit normal `n` is `vn` (m/s): a contact; `mu` is its friction
     /// coefficient.
     Normal { n: Vec3, vn: Real, mu: Real },
+    /// A contact held by static friction: its velocity is `n vn`, nothing tangential, as long
+    /// as the force that holds it stays inside the friction cone.
+    Stick { n: Vec3, vn: Real, mu: Real },
     /// Its velocity is fixed: a hand.
     Fixed(Vec3),
 }
@@ -72,7 +75,7 @@ impl Constraint {
         match self {
             Constraint::Free => v,
             Constraint::Normal { n, .. } => v - n * n.dot(v),
-            Constraint::Fixed(_) => Vec3::ZERO,
+            Constraint::Stick { .. } | Constraint::Fixed(_) => Vec3::ZERO,
         }
     }
 
@@ -81,7 +84,7 @@ impl Constraint {
     fn value(self) -> Vec3 {
         match self {
             Constraint::Free => Vec3::ZERO,
-            Constraint::Normal { n, vn, .. } => n * vn,
+            Constraint::Normal { n, vn, .. } | Constraint::Stick { n, vn, .. } => n * vn,
             Constraint::Fixed(v) => v,
         }
     }
@@ -126,7 +129,7 @@ impl SpringSet {
     }
 
     /// `H_e p` (N/m times m/s).
-    #[inline]
+    #[inline(always)]
     fn apply(&self, e: usize, p: Vec3) -> Vec3 {
         let d = self.d.get(e);
         p * self.ks[e] + d * (self.kd[e] * d.dot(p))
@@ -162,6 +165,10 @@ pub(crate) struct Implicit {
     gas: Vec<Real>,
     dots: Vec<Real>,
     constraints: Vec<Constraint>,
+    /// The particles with a free direction in the current solve.
+    active: Vec<u32>,
+    /// Whether static friction held each particle at the end of the last step.
+    stuck: Vec<bool>,
     /// Mass times `1 + dt c`, kg, per particle.
     inertia: Vec<Real>,
     /// Right-hand side `M v + dt f`, and the unknown `v+`.
@@ -201,6 +208,8 @@ impl Implicit {
             gas: Vec::new(),
             dots: Vec::new(),
             constraints: vec![Constraint::Free; n],
+            active: Vec::with_capacity(n),
+            stuck: vec![false; n],
             inertia: vec![0.0; n],
             rhs: Soa::zeros(n),
             v: Soa::zeros(n),
@@ -305,10 +314,10 @@ impl Implicit {
         }
     }
 
-    /// `out = A p` (unfiltered).
-    fn apply(&mut self, sys: &System<'_>, which: Which) {
-        let (nx, nz) = (sys.nx, sys.nz);
-        let n = nx * nz;
+    /// `q = A p` (unfiltered) on every particle, or with `only` on those particles (`p` zero on
+    /// the others).
+    fn apply(&mut self, sys: &System<'_>, which: Which, only: Option<&[u32]>) {
+        let n = sys.nx * sys.nz;
         let p = match which {
             Which::P => &self.p,
             Which::V => &self.v,
@@ -317,48 +326,69 @@ impl Implicit {
         self.dots.clear();
         self.dots.resize(sys.regions.list.len(), 0.0);
         if !self.dots.is_empty() {
-            for k in 0..n {
+            let mut add = |k: usize| {
                 if let Some(r) = sys.regions.of(k) {
                     self.dots[r] += self.per_pascal.get(k).dot(p.get(k));
                 }
+            };
+            // `p` is zero off the list, `v` is not.
+            match (only, which) {
+                (Some(list), Which::P) => list.iter().for_each(|&k| add(k as usize)),
+                _ => (0..n).for_each(add),
             }
         }
-        for j in 0..nz {
-            for i in 0..nx {
-                let a = j * nx + i;
-                let pa = p.get(a);
-                let mut h = Vec3::ZERO;
-                if i + 1 < nx {
-                    h += self.right.apply(a, pa - p.get(a + 1));
+        match only {
+            Some(list) => {
+                for &k in list {
+                    let y = self.row_apply(sys, p, k as usize);
+                    self.q.set(k as usize, y);
                 }
-                if i > 0 {
-                    h += self.right.apply(a - 1, pa - p.get(a - 1));
+            }
+            None => {
+                for k in 0..n {
+                    let y = self.row_apply(sys, p, k);
+                    self.q.set(k, y);
                 }
-                if j + 1 < nz {
-                    h += self.down.apply(a, pa - p.get(a + nx));
-                    if i + 1 < nx {
-                        h += self.diag.apply(a, pa - p.get(a + nx + 1));
-                    }
-                    if i > 0 {
-                        h += self.anti.apply(a - 1, pa - p.get(a + nx - 1));
-                    }
-                }
-                if j > 0 {
-                    h += self.down.apply(a - nx, pa - p.get(a - nx));
-                    if i > 0 {
-                        h += self.diag.apply(a - nx - 1, pa - p.get(a - nx - 1));
-                    }
-                    if i + 1 < nx {
-                        h += self.anti.apply(a - nx, pa - p.get(a - nx + 1));
-                    }
-                }
-                let mut y = pa * self.inertia[a] + h * sys.dt2;
-                if let Some(r) = sys.regions.of(a) {
-                    y += self.per_pascal.get(a) * (self.gas[r] * self.dots[r]);
-                }
-                self.q.set(a, y);
             }
         }
+    }
+
+    /// Row `a` of `A p`, with the regions' dot products in `self.dots`.
+    #[inline(always)]
+    fn row_apply(&self, sys: &System<'_>, p: &Soa, a: usize) -> Vec3 {
+        let (nx, nz) = (sys.nx, sys.nz);
+        let (i, j) = (a % nx, a / nx);
+        let pa = p.get(a);
+        let mut h = Vec3::ZERO;
+        if i + 1 < nx {
+            h += self.right.apply(a, pa - p.get(a + 1));
+        }
+        if i > 0 {
+            h += self.right.apply(a - 1, pa - p.get(a - 1));
+        }
+        if j + 1 < nz {
+            h += self.down.apply(a, pa - p.get(a + nx));
+            if i + 1 < nx {
+                h += self.diag.apply(a, pa - p.get(a + nx + 1));
+            }
+            if i > 0 {
+                h += self.anti.apply(a - 1, pa - p.get(a + nx - 1));
+            }
+        }
+        if j > 0 {
+            h += self.down.apply(a - nx, pa - p.get(a - nx));
+            if i > 0 {
+                h += self.diag.apply(a - nx - 1, pa - p.get(a - nx - 1));
+            }
+            if i + 1 < nx {
+                h += self.anti.apply(a - nx, pa - p.get(a - nx + 1));
+            }
+        }
+        let mut y = pa * self.inertia[a] + h * sys.dt2;
+        if let Some(r) = sys.regions.of(a) {
+            y += self.per_pascal.get(a) * (self.gas[r] * self.dots[r]);
+        }
+        y
     }
 
     /// The inverse diagonal of `A`.
@@ -407,14 +437,25 @@ impl Implicit {
     /// iterations taken.
     fn solve(&mut self, sys: &System<'_>) -> usize {
         let n = self.v.len();
+        // The particles with a free direction: the solve runs over them alone.
+        let mut active = std::mem::take(&mut self.active);
+        active.clear();
         for k in 0..n {
             let c = self.constraints[k];
             self.v.set(k, c.filter(self.v.get(k)) + c.value());
+            self.r.set(k, Vec3::ZERO);
+            self.z.set(k, Vec3::ZERO);
+            self.p.set(k, Vec3::ZERO);
+            if matches!(c, Constraint::Free | Constraint::Normal { .. }) {
+                active.push(k as u32);
+            }
         }
-        self.apply(sys, Which::V);
+        self.apply(sys, Which::V, Some(&active));
         let mut bb = 0.0;
         let mut rz = 0.0;
-        for k in 0..n {
+        let mut rr = 0.0;
+        for &k in &active {
+            let k = k as usize;
             let c = self.constraints[k];
             let b = c.filter(self.rhs.get(k));
             bb += b.length_squared();
@@ -424,14 +465,15 @@ impl Implicit {
             self.z.set(k, z);
             self.p.set(k, z);
             rz += r.dot(z);
+            rr += r.length_squared();
         }
         let goal = CG_TOLERANCE * CG_TOLERANCE * bb.max(Real::MIN_POSITIVE);
-        let mut rr = (0..n).map(|k| self.r.get(k).length_squared()).sum::<Real>();
         let mut it = 0;
         while rr > goal && it < CG_MAX_ITERATIONS {
-            self.apply(sys, Which::P);
+            self.apply(sys, Which::P, Some(&active));
             let mut pq = 0.0;
-            for k in 0..n {
+            for &k in &active {
+                let k = k as usize;
                 let q = self.constraints[k].filter(self.q.get(k));
                 self.q.set(k, q);
                 pq += self.p.get(k).dot(q);
@@ -441,7 +483,8 @@ impl Implicit {
             }
             let alpha = rz / pq;
             let (mut rz_new, mut rr_new) = (0.0, 0.0);
-            for k in 0..n {
+            for &k in &active {
+                let k = k as usize;
                 self.v.set(k, self.v.get(k) + self.p.get(k) * alpha);
                 let r = self.r.get(k) - self.q.get(k) * alpha;
                 self.r.set(k, r);
@@ -451,13 +494,15 @@ impl Implicit {
                 rr_new += r.length_squared();
             }
             let beta = rz_new / rz;
-            for k in 0..n {
+            for &k in &active {
+                let k = k as usize;
                 self.p.set(k, self.z.get(k) + self.p.get(k) * beta);
             }
             rz = rz_new;
             rr = rr_new;
             it += 1;
         }
+        self.active = active;
         it
     }
 
@@ -494,7 +539,8 @@ impl Implicit {
             self.inertia[k] = m * (1.0 + dt * c);
             let v = state.velocity(k, dt);
             self.rhs.set(k, v * m + self.force.get(k) * dt);
-            self.v.set(k, v);
+            // First guess: the velocity after gravity alone (exact in free fall).
+            self.v.set(k, v + model.gravity * dt);
         }
         // Constraints: the hands, then contacts where a particle touches or would reach a
         // collider during the step at its current speed.
@@ -507,7 +553,13 @@ impl Implicit {
                 continue;
             }
             let (x, v) = (state.x.get(k), state.velocity(k, dt));
-            self.constraints[k] = contact_constraint(model, k, x, v, dt, state.contact[k]);
+            let c = contact_constraint(model, k, x, v, dt, state.contact[k]);
+            self.constraints[k] = match c {
+                Constraint::Normal { n, vn, mu } if self.stuck[k] => {
+                    Constraint::Stick { n, vn, mu }
+                }
+                c => c,
+            };
         }
         // `System` borrows the regions; the rest of `self` is used mutably below.
         let regions = std::mem::take(&mut self.regions);
@@ -521,12 +573,13 @@ impl Implicit {
         self.iterations = 0;
         for pass in 0..CONTACT_PASSES {
             self.iterations += self.solve(&sys);
+            // `A v+`: the constraint forces are `(A v+ - b) / dt`.
+            self.apply(&sys, Which::V, None);
             if pass + 1 == CONTACT_PASSES {
                 break;
             }
-            // Constraint forces: release contacts that pull; constrain particles that would
-            // land inside a collider.
-            self.apply(&sys, Which::V);
+            // Release contacts that pull or slip; constrain particles that would land inside
+            // a collider.
             let mut changed = false;
             for k in 0..n {
                 match self.constraints[k] {
@@ -545,6 +598,19 @@ impl Implicit {
                             changed = true;
                         }
                     }
+                    Constraint::Stick { n: normal, vn, mu } => {
+                        // Inside the friction cone, or sliding, or pulling free.
+                        let lambda = self.q.get(k) - self.rhs.get(k);
+                        let push = lambda.dot(normal);
+                        let shear = (lambda - normal * push).length();
+                        if push < 0.0 {
+                            self.constraints[k] = Constraint::Free;
+                            changed = true;
+                        } else if shear > mu * push {
+                            self.constraints[k] = Constraint::Normal { n: normal, vn, mu };
+                            changed = true;
+                        }
+                    }
                     Constraint::Fixed(_) => {}
                 }
             }
@@ -552,8 +618,7 @@ impl Implicit {
                 break;
             }
         }
-        // Constraint forces of the final solution: the hands' and the contacts' normal forces.
-        self.apply(&sys, Which::V);
+        // The constraint forces of the final solution (in `q`): the hands' and the contacts'.
         self.regions = regions;
         let Motion::Previous(prev) = &mut state.motion else {
             unreachable!("converted above")
@@ -577,20 +642,31 @@ impl Implicit {
             let x = state.x.get(k);
             let mut v = self.v.get(k);
             let mut touched = false;
-            if let Constraint::Normal { n: normal, mu, .. } = self.constraints[k] {
-                let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
-                if push > 0.0 {
-                    touched = true;
-                    let vt = v - normal * normal.dot(v);
-                    let slide = vt.length();
-                    let grip = mu * push / model.mass(k);
-                    v -= if slide <= grip {
-                        vt
-                    } else {
-                        vt * (grip / slide)
-                    };
+            let mut stuck = false;
+            match self.constraints[k] {
+                Constraint::Normal { n: normal, mu, .. } => {
+                    let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
+                    if push > 0.0 {
+                        touched = true;
+                        let vt = v - normal * normal.dot(v);
+                        let slide = vt.length();
+                        let grip = mu * push / model.mass(k);
+                        if slide <= grip {
+                            v -= vt;
+                            stuck = true;
+                        } else {
+                            v -= vt * (grip / slide);
+                        }
+                    }
                 }
+                Constraint::Stick { n: normal, .. } => {
+                    let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
+                    touched = push > 0.0;
+                    stuck = touched;
+                }
+                _ => {}
             }
+            self.stuck[k] = stuck;
             let mut to = x + v * dt;
             if let Constraint::Fixed(_) = self.constraints[k] {
                 to = control
