@@ -58,9 +58,15 @@ const CONTACT_PASSES: usize = 4;
 enum Constraint {
     /// Free.
     Free,
-    /// Its velocity along the unit normal `n` is `vn` (m/s): a contact; `mu` is its friction
+    /// Its velocity along the unit normal `n` is `vn` (m/s): a sliding contact, `slip` the
+    /// kinetic friction's impulse over the step (N s, tangential), `mu` its friction
     /// coefficient.
-    Normal { n: Vec3, vn: Real, mu: Real },
+    Normal {
+        n: Vec3,
+        vn: Real,
+        mu: Real,
+        slip: Vec3,
+    },
     /// A contact held by static friction: its velocity is `n vn`, nothing tangential, as long
     /// as the force that holds it stays inside the friction cone.
     Stick { n: Vec3, vn: Real, mu: Real },
@@ -76,6 +82,15 @@ impl Constraint {
             Constraint::Free => v,
             Constraint::Normal { n, .. } => v - n * n.dot(v),
             Constraint::Stick { .. } | Constraint::Fixed(_) => Vec3::ZERO,
+        }
+    }
+
+    /// The friction impulse of a sliding contact, N s.
+    #[inline]
+    fn slip(self) -> Vec3 {
+        match self {
+            Constraint::Normal { slip, .. } => slip,
+            _ => Vec3::ZERO,
         }
     }
 
@@ -167,8 +182,6 @@ pub(crate) struct Implicit {
     constraints: Vec<Constraint>,
     /// The particles with a free direction in the current solve.
     active: Vec<u32>,
-    /// Whether static friction held each particle at the end of the last step.
-    stuck: Vec<bool>,
     /// Mass times `1 + dt c`, kg, per particle.
     inertia: Vec<Real>,
     /// Right-hand side `M v + dt f`, and the unknown `v+`.
@@ -209,7 +222,6 @@ impl Implicit {
             dots: Vec::new(),
             constraints: vec![Constraint::Free; n],
             active: Vec::with_capacity(n),
-            stuck: vec![false; n],
             inertia: vec![0.0; n],
             rhs: Soa::zeros(n),
             v: Soa::zeros(n),
@@ -457,9 +469,9 @@ impl Implicit {
         for &k in &active {
             let k = k as usize;
             let c = self.constraints[k];
-            let b = c.filter(self.rhs.get(k));
+            let b = c.filter(self.rhs.get(k) + c.slip());
             bb += b.length_squared();
-            let r = c.filter(self.rhs.get(k) - self.q.get(k));
+            let r = c.filter(self.rhs.get(k) + c.slip() - self.q.get(k));
             self.r.set(k, r);
             let z = c.filter(r * self.inv_diag.get(k));
             self.z.set(k, z);
@@ -553,13 +565,7 @@ impl Implicit {
                 continue;
             }
             let (x, v) = (state.x.get(k), state.velocity(k, dt));
-            let c = contact_constraint(model, k, x, v, dt, state.contact[k]);
-            self.constraints[k] = match c {
-                Constraint::Normal { n, vn, mu } if self.stuck[k] => {
-                    Constraint::Stick { n, vn, mu }
-                }
-                c => c,
-            };
+            self.constraints[k] = contact_constraint(model, k, x, v, dt, state.contact[k]);
         }
         // `System` borrows the regions; the rest of `self` is used mutably below.
         let regions = std::mem::take(&mut self.regions);
@@ -607,7 +613,15 @@ impl Implicit {
                             self.constraints[k] = Constraint::Free;
                             changed = true;
                         } else if shear > mu * push {
-                            self.constraints[k] = Constraint::Normal { n: normal, vn, mu };
+                            // Slides: the friction gives mu times the normal force, in the
+                            // direction the grip would have pushed.
+                            let t = (lambda - normal * push) / shear;
+                            self.constraints[k] = Constraint::Normal {
+                                n: normal,
+                                vn,
+                                mu,
+                                slip: t * (mu * push),
+                            };
                             changed = true;
                         }
                     }
@@ -642,31 +656,24 @@ impl Implicit {
             let x = state.x.get(k);
             let mut v = self.v.get(k);
             let mut touched = false;
-            let mut stuck = false;
             match self.constraints[k] {
-                Constraint::Normal { n: normal, mu, .. } => {
+                Constraint::Normal {
+                    n: normal, slip, ..
+                } => {
                     let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
-                    if push > 0.0 {
-                        touched = true;
-                        let vt = v - normal * normal.dot(v);
-                        let slide = vt.length();
-                        let grip = mu * push / model.mass(k);
-                        if slide <= grip {
-                            v -= vt;
-                            stuck = true;
-                        } else {
-                            v -= vt * (grip / slide);
-                        }
+                    touched = push > 0.0;
+                    // Kinetic friction stops a slide; it never reverses it.
+                    let vt = v - normal * normal.dot(v);
+                    if touched && vt.dot(slip) > 0.0 {
+                        v -= vt;
                     }
                 }
                 Constraint::Stick { n: normal, .. } => {
                     let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
                     touched = push > 0.0;
-                    stuck = touched;
                 }
                 _ => {}
             }
-            self.stuck[k] = stuck;
             let mut to = x + v * dt;
             if let Constraint::Fixed(_) = self.constraints[k] {
                 to = control
@@ -740,7 +747,7 @@ fn contact_constraint(
         let reach = (-v.dot(n)).max(0.0) * dt;
         if gap <= skin.max(reach) && gap < nearest {
             nearest = gap;
-            best = Constraint::Normal {
+            best = Constraint::Stick {
                 n,
                 vn: -gap / dt,
                 mu: c.friction * scale,
@@ -762,7 +769,7 @@ fn landing_constraint(model: &Model, k: usize, x: Vec3, to: Vec3, dt: Real) -> O
         if depth > deepest {
             deepest = depth;
             let gap = c.distance(x).0 - model.radius;
-            best = Some(Constraint::Normal {
+            best = Some(Constraint::Stick {
                 n,
                 vn: -gap / dt,
                 mu: c.friction * scale,
