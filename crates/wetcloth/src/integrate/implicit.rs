@@ -749,7 +749,7 @@ fn contact_constraint(
             nearest = gap;
             best = Constraint::Stick {
                 n,
-                vn: -gap / dt,
+                vn: (-gap / dt).max(0.0),
                 mu: c.friction * scale,
             };
         }
@@ -771,7 +771,7 @@ fn landing_constraint(model: &Model, k: usize, x: Vec3, to: Vec3, dt: Real) -> O
             let gap = c.distance(x).0 - model.radius;
             best = Some(Constraint::Stick {
                 n,
-                vn: -gap / dt,
+                vn: (-gap / dt).max(0.0),
                 mu: c.friction * scale,
             });
         }
