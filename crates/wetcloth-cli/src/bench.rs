@@ -63,6 +63,33 @@ pub struct BenchArgs {
     /// the cloth is wet and seals where it touches, so the pockets' search runs every step).
     #[arg(long, default_value = "thesis", value_name = "MODEL", value_parser = parse_air_model)]
     pub air_model: AirModelKind,
+
+    /// The integrator: `verlet` (position Verlet, the thesis' eq. 3.1) or `implicit` (backward
+    /// Euler with a conjugate gradient).
+    #[arg(long, default_value = "verlet", value_name = "NAME", value_parser = parse_integrator)]
+    pub integrator: wetcloth::Integrator,
+
+    /// Time step, s. Default: the workload's 1/12000 s with `verlet`, 1/600 s with `implicit`.
+    #[arg(long, value_name = "S", value_parser = parse_time_step)]
+    pub time_step: Option<f64>,
+}
+
+fn parse_integrator(s: &str) -> Result<wetcloth::Integrator, String> {
+    wetcloth::Integrator::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = wetcloth::Integrator::ALL.iter().map(|i| i.name()).collect();
+        format!("unknown integrator `{s}`: one of {}", names.join(", "))
+    })
+}
+
+fn parse_time_step(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of seconds"))?;
+    if v.is_finite() && (1e-7..=0.05).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{s} is out of range: allowed [1e-7, 0.05] s"))
+    }
 }
 
 fn parse_air_model(s: &str) -> Result<AirModelKind, String> {
@@ -104,6 +131,8 @@ pub struct Measurement {
     pub self_collision: bool,
     /// The air model (`thesis` or `pockets`).
     pub air_model: &'static str,
+    /// The integrator's scene name.
+    pub integrator: &'static str,
     /// Heap memory the simulation held at the end, bytes (`Simulation::memory_bytes`).
     pub memory_bytes: usize,
     /// Fastest and slowest window, steps per second.
@@ -145,13 +174,7 @@ pub fn bench(args: &BenchArgs, quiet: bool) -> Result<(), CliError> {
     for &side in &sizes {
         for &t in &threads {
             bar.set_message(format!("{side} x {side}, {t} thread(s)"));
-            results.push(measure(
-                side,
-                t,
-                args.seconds,
-                !args.no_self_collision,
-                args.air_model,
-            )?);
+            results.push(measure(side, t, args, !args.no_self_collision)?);
             bar.inc(1);
         }
     }
@@ -171,17 +194,22 @@ pub fn bench(args: &BenchArgs, quiet: bool) -> Result<(), CliError> {
 fn measure(
     side: usize,
     threads: usize,
-    seconds: f64,
+    args: &BenchArgs,
     self_collision: bool,
-    air_model: AirModelKind,
 ) -> Result<Measurement, CliError> {
+    let seconds = args.seconds;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| CliError::Setup(format!("cannot start {threads} threads: {e}")))?;
     let mut cfg = thesis_workload(side);
     cfg.cloth.self_collision = self_collision;
-    cfg.air.model = air_model;
+    cfg.air.model = args.air_model;
+    cfg.simulation.integrator = args.integrator;
+    cfg.simulation.time_step = args.time_step.unwrap_or(match args.integrator {
+        wetcloth::Integrator::Verlet => cfg.simulation.time_step,
+        wetcloth::Integrator::Implicit => 1.0 / 600.0,
+    });
     let dt = cfg.simulation.time_step;
     let particles = side * side;
     pool.install(|| {
@@ -229,7 +257,8 @@ fn measure(
             real_time_factor: median * dt,
             time_step: dt,
             self_collision,
-            air_model: air_model.name(),
+            air_model: args.air_model.name(),
+            integrator: args.integrator.name(),
             memory_bytes: sim.memory_bytes(),
             steps_per_second_range: [rates[0], rates[rates.len() - 1]],
             windows: WINDOWS,
@@ -269,8 +298,9 @@ fn print_table(results: &[Measurement]) {
     }
     if let Some(m) = results.first() {
         println!(
-            "(median of {} windows each; time step {:.4e} s; self-collision {})",
+            "(median of {} windows each; {} integrator; time step {:.4e} s; self-collision {})",
             m.windows,
+            m.integrator,
             m.time_step,
             if m.self_collision { "on" } else { "off" }
         );

@@ -127,7 +127,7 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
 
     let dt = config.simulation.time_step;
     let stable = config.stable_time_step();
-    if dt > stable {
+    if dt > stable && config.simulation.integrator == wetcloth::Integrator::Verlet {
         eprintln!(
             "wetcloth: warning: time_step = {dt} s is above this cloth's explicit stability \
              limit of {stable:.3e} s; the run will probably blow up"

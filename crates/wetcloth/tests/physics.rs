@@ -549,3 +549,87 @@ fn results_do_not_depend_on_the_thread_count() {
         assert_eq!(one, state(3, limit));
     }
 }
+
+// ---- Every integrator --------------------------------------------------------------------
+
+/// The closed forms every integrator must meet, each at its own step and with its own derived
+/// tolerance: free fall (position Verlet with the Taylor start is exact to round-off; backward
+/// Euler lags by g t dt / 2, first order) and a 20-degree slope (static friction holds at
+/// mu = 0.5; at mu = 0.2 the cloth slides at g (sin 20 - mu cos 20): exact in velocity for both,
+/// the tolerance is the 5 % of the target).
+#[test]
+fn closed_forms_hold_for_every_integrator() {
+    for integrator in wetcloth::Integrator::ALL {
+        let (dt, lag): (Real, Real) = match integrator {
+            wetcloth::Integrator::Verlet => (1.0 / 12000.0, 0.0),
+            wetcloth::Integrator::Implicit => (1.0 / 600.0, 1.0),
+        };
+        let name = integrator.name();
+        // Free fall for 0.3 s.
+        let mut cfg = bare(5);
+        cfg.simulation.integrator = integrator;
+        cfg.simulation.time_step = dt;
+        let mut sim = Simulation::new(cfg).unwrap();
+        run(&mut sim, 0.3);
+        let t = sim.time();
+        let expect = 1.0 - 0.5 * 9.8 * t * t - lag * 0.5 * 9.8 * t * dt;
+        for &y in &sim.positions().y {
+            assert!((y - expect).abs() < 1e-9, "{name}: {y} vs {expect}");
+        }
+        // The slope, 0.3 s.
+        let theta: Real = 20f64.to_radians();
+        for mu in [0.5, 0.2] {
+            let mut cfg = bare(5);
+            cfg.simulation.integrator = integrator;
+            cfg.simulation.time_step = dt;
+            cfg.simulation.gravity = Vec3::new(9.8 * theta.sin(), -9.8 * theta.cos(), 0.0);
+            cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, mu)];
+            cfg.cloth.position.y = cfg.cloth.particle_radius();
+            cfg.cloth.damping = 0.0;
+            let mut sim = Simulation::new(cfg).unwrap();
+            let x0 = mean(&sim.positions().x);
+            run(&mut sim, 0.3);
+            let a = (9.8 * (theta.sin() - mu * theta.cos())).max(0.0);
+            let v = mean(&sim.velocities().x);
+            let dx = mean(&sim.positions().x) - x0;
+            if a == 0.0 {
+                assert!(
+                    dx.abs() < 1e-12,
+                    "{name}: static friction holds, moved {dx}"
+                );
+            } else {
+                let got = v / sim.time();
+                assert!((got - a).abs() < 0.05 * a, "{name}: slides at {got} vs {a}");
+            }
+        }
+    }
+}
+
+/// The implicit integrator gives bit-identical states with 1 and 2 threads.
+#[test]
+fn implicit_results_do_not_depend_on_the_thread_count() {
+    let state = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut cfg = SimConfig::thesis_demo();
+            cfg.cloth.resolution = [40, 33];
+            cfg.simulation.integrator = wetcloth::Integrator::Implicit;
+            cfg.simulation.time_step = 1.0 / 600.0;
+            cfg.grabs = vec![wetcloth::GrabSpec::lift([20, 16], 0.0, 0.05, 0.01)];
+            let mut sim = Simulation::new(cfg).unwrap();
+            run(&mut sim, 0.05);
+            let p = sim.positions();
+            let bits: Vec<u64> =
+                p.x.iter()
+                    .chain(&p.y)
+                    .chain(&p.z)
+                    .map(|v| v.to_bits())
+                    .collect();
+            (bits, sim.metrics().values().map(Real::to_bits))
+        })
+    };
+    assert_eq!(state(1), state(2));
+}

@@ -115,7 +115,7 @@ impl ViewerApp {
                 ui.label("Time step");
                 done(
                     ui.add(
-                        egui::Slider::new(&mut e.rate, 1000.0..=40000.0)
+                        egui::Slider::new(&mut e.rate, 60.0..=40000.0)
                             .logarithmic(true)
                             .prefix("1/")
                             .suffix(" s")
@@ -128,8 +128,10 @@ impl ViewerApp {
                 done(ui.add(egui::Slider::new(&mut e.resolution, 4..=100).suffix(" per side")));
                 ui.end_row();
             });
-        let stable = self.edit.apply(&self.snap.config).stable_time_step();
-        if 1.0 / self.edit.rate > stable {
+        let edited = self.edit.apply(&self.snap.config);
+        let stable = edited.stable_time_step();
+        let explicit = edited.simulation.integrator == wetcloth::Integrator::Verlet;
+        if explicit && 1.0 / self.edit.rate > stable {
             ui.label(
                 RichText::new(format!(
                     "Above this cloth's stable time step, 1/{:.0} s",

@@ -18,6 +18,7 @@ pub mod bubble;
 pub mod gap;
 pub mod leak;
 pub mod pockets;
+pub(crate) mod region;
 
 pub use boyle::{MIN_GAP, boyle_pressure};
 pub use bubble::Bubble;

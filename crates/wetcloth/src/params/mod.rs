@@ -109,7 +109,12 @@ impl SimConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         let s = &self.simulation;
         check_open_low("simulation.duration", s.duration, 0.0, 1e4)?;
-        check_range("simulation.time_step", s.time_step, 1e-7, 1e-2)?;
+        check_range(
+            "simulation.time_step",
+            s.time_step,
+            1e-7,
+            s.integrator.max_time_step(),
+        )?;
         check_range("simulation.frame_rate", s.frame_rate, 1.0, 1e4)?;
         check_vec("simulation.gravity", s.gravity, -1000.0, 1000.0)?;
 

@@ -1,0 +1,783 @@
+//! Backward Euler with one Newton step and a matrix-free, preconditioned conjugate gradient on
+//! the 9-point stencil: a large-step integrator for stiff cloth under trapped air.
+//!
+//! The unknown is the velocity at the end of the step, `v+`, with `x+ = x + dt v+`. Linearising
+//! the forces at the start of the step, backward Euler `M (v+ - v) = dt f(x+, v+)` becomes
+//!
+//! ```text
+//! [ M (1 + dt c) + dt^2 H + dt^2 sum_r k_r g_r g_r^T ] v+ = M v + dt f(x)
+//! ```
+//!
+//! with `c` the damping rate (1/s), `H = -df/dx` of the springs (eq. 3.6; each spring's
+//! `k [d d^T + max(0, 1 - l/|d|) (I - d d^T)]`, the transverse part dropped for a compressed
+//! spring so that `H` stays positive semi-definite), and for each sealed region of air `r`
+//! (`air::region`: the thesis' bubble, or a pocket) its gas spring, the rank-one term with
+//! `k_r = P_r / V_r` (Pa/m^3, minus Boyle's `dP/dV`) and `g_r` the pressure force per pascal of
+//! its particles (`S N_i`, eq. 3.7; `dV/dx_i` as the thesis spreads it). The system matrix is
+//! symmetric positive definite; the conjugate gradient applies it row by row (the springs of
+//! each particle's 8 neighbours, then one dot product per region for the rank-one terms), never
+//! forming it, preconditioned by its diagonal.
+//!
+//! Constraints are filtered out of the solve (Baraff and Witkin 1998): a particle a hand holds
+//! has its velocity fixed to reach the hand's target; a particle touching a collider has its
+//! normal velocity fixed to land on the surface. The force each constraint needs is the
+//! residual `(A v+ - b) / dt` at its particle: for a hand, the hand's force (thesis 3.2 step 3);
+//! for a contact, the normal force of eq. 3.4. A contact that would have to pull is released
+//! and a particle that would land inside a collider is constrained, and the system solved
+//! again. Coulomb friction (eq. 3.5) then takes at most `mu |F_n| dt / m` off the tangential
+//! velocity: if that stops it, the particle sticks; otherwise it slides with the
+//! kinetic-friction deceleration, so on a slope of angle theta `a = g (sin theta - mu cos
+//! theta)` exactly, at any step.
+//!
+//! Every sum (the dot products of the gradient, the regions' dot products) runs over the
+//! particles in index order, so the result does not depend on the thread count.
+
+use super::{Air, Fused};
+use crate::air::Timing;
+use crate::air::region::Regions;
+use crate::checks;
+use crate::collide::contact;
+use crate::control::Control;
+use crate::forces::pressure;
+use crate::math::{Real, RowMut, Soa, Vec3, row};
+use crate::model::Model;
+use crate::params::PressureForce;
+use crate::state::{Motion, State};
+
+/// Relative residual at which the conjugate gradient stops: `|r| <= CG_TOLERANCE |b|`.
+pub const CG_TOLERANCE: Real = 1e-5;
+
+/// Most conjugate-gradient iterations per solve.
+pub const CG_MAX_ITERATIONS: usize = 4000;
+
+/// Most solves per step while the contact set changes.
+const CONTACT_PASSES: usize = 4;
+
+/// A particle's constraint in the solve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Constraint {
+    /// Free.
+    Free,
+    /// Its velocity along the unit normal `n` is `vn` (m/s): a sliding contact, `slip` the
+    /// kinetic friction's impulse over the step (N s, tangential), `mu` its friction
+    /// coefficient.
+    Normal {
+        n: Vec3,
+        vn: Real,
+        mu: Real,
+        slip: Vec3,
+    },
+    /// A contact held by static friction: its velocity is `n vn`, nothing tangential, as long
+    /// as the force that holds it stays inside the friction cone.
+    Stick { n: Vec3, vn: Real, mu: Real },
+    /// Its velocity is fixed: a hand.
+    Fixed(Vec3),
+}
+
+impl Constraint {
+    /// `v` with the constrained directions removed.
+    #[inline]
+    fn filter(self, v: Vec3) -> Vec3 {
+        match self {
+            Constraint::Free => v,
+            Constraint::Normal { n, .. } => v - n * n.dot(v),
+            Constraint::Stick { .. } | Constraint::Fixed(_) => Vec3::ZERO,
+        }
+    }
+
+    /// The friction impulse of a sliding contact, N s.
+    #[inline]
+    fn slip(self) -> Vec3 {
+        match self {
+            Constraint::Normal { slip, .. } => slip,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// The constrained part of the velocity.
+    #[inline]
+    fn value(self) -> Vec3 {
+        match self {
+            Constraint::Free => Vec3::ZERO,
+            Constraint::Normal { n, vn, .. } | Constraint::Stick { n, vn, .. } => n * vn,
+            Constraint::Fixed(v) => v,
+        }
+    }
+}
+
+/// The linearised springs of one stencil direction, indexed by the spring's first particle:
+/// unit direction `d` and the two stiffnesses of `H_e = ks I + kd d d^T` (N/m).
+#[derive(Clone, Debug, Default)]
+struct SpringSet {
+    d: Soa,
+    ks: Vec<Real>,
+    kd: Vec<Real>,
+}
+
+impl SpringSet {
+    fn new(n: usize) -> Self {
+        Self {
+            d: Soa::zeros(n),
+            ks: vec![0.0; n],
+            kd: vec![0.0; n],
+        }
+    }
+
+    /// Sets spring `e` between `xa` and `xb` (stiffness `k`, rest length `l`) and returns the
+    /// force on `a`, N.
+    #[inline]
+    fn set(&mut self, e: usize, xa: Vec3, xb: Vec3, k: Real, l: Real) -> Vec3 {
+        let d = xb - xa;
+        let len = d.length();
+        if len < 1e-12 {
+            self.d.set(e, Vec3::ZERO);
+            self.ks[e] = 0.0;
+            self.kd[e] = 0.0;
+            return Vec3::ZERO;
+        }
+        let u = d / len;
+        let s = (1.0 - l / len).max(0.0);
+        self.d.set(e, u);
+        self.ks[e] = k * s;
+        self.kd[e] = k * (1.0 - s);
+        u * (k * (len - l))
+    }
+
+    /// `H_e p` (N/m times m/s).
+    #[inline(always)]
+    fn apply(&self, e: usize, p: Vec3) -> Vec3 {
+        let d = self.d.get(e);
+        p * self.ks[e] + d * (self.kd[e] * d.dot(p))
+    }
+
+    /// Diagonal of `H_e`.
+    #[inline]
+    fn diagonal(&self, e: usize) -> Vec3 {
+        let d = self.d.get(e);
+        Vec3::splat(self.ks[e]) + d * d * self.kd[e]
+    }
+
+    fn heap_bytes(&self) -> usize {
+        self.d.heap_bytes() + (self.ks.capacity() + self.kd.capacity()) * 8
+    }
+}
+
+/// Scratch of the implicit integrator.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Implicit {
+    /// Springs towards +x, +z, +x+z, and from (i+1, j) towards (i, j+1).
+    right: SpringSet,
+    down: SpringSet,
+    diag: SpringSet,
+    anti: SpringSet,
+    /// Forces at the start of the step (without the hands and contacts), N.
+    force: Soa,
+    /// Pressure force per pascal of each particle, m^2 (`S N_i`).
+    per_pascal: Soa,
+    /// The air's regions.
+    regions: Regions,
+    /// Each region's gas-spring term `dt^2 k_r`, and scratch for its dot product.
+    gas: Vec<Real>,
+    dots: Vec<Real>,
+    constraints: Vec<Constraint>,
+    /// The particles with a free direction in the current solve.
+    active: Vec<u32>,
+    /// Mass times `1 + dt c`, kg, per particle.
+    inertia: Vec<Real>,
+    /// Right-hand side `M v + dt f`, and the unknown `v+`.
+    rhs: Soa,
+    v: Soa,
+    /// Conjugate-gradient vectors: residual, preconditioned residual, direction, `A p`.
+    r: Soa,
+    z: Soa,
+    p: Soa,
+    q: Soa,
+    /// Inverse of the diagonal of the system matrix.
+    inv_diag: Soa,
+    /// Conjugate-gradient iterations of the last step (all solves).
+    pub iterations: usize,
+}
+
+/// The step's constants the matrix needs.
+struct System<'a> {
+    nx: usize,
+    nz: usize,
+    dt2: Real,
+    regions: &'a Regions,
+}
+
+impl Implicit {
+    /// Scratch for the particles of `model`.
+    pub fn new(model: &Model) -> Self {
+        let n = model.grid.len();
+        Self {
+            right: SpringSet::new(n),
+            down: SpringSet::new(n),
+            diag: SpringSet::new(n),
+            anti: SpringSet::new(n),
+            force: Soa::zeros(n),
+            per_pascal: Soa::zeros(n),
+            regions: Regions::default(),
+            gas: Vec::new(),
+            dots: Vec::new(),
+            constraints: vec![Constraint::Free; n],
+            active: Vec::with_capacity(n),
+            inertia: vec![0.0; n],
+            rhs: Soa::zeros(n),
+            v: Soa::zeros(n),
+            r: Soa::zeros(n),
+            z: Soa::zeros(n),
+            p: Soa::zeros(n),
+            q: Soa::zeros(n),
+            inv_diag: Soa::zeros(n),
+            iterations: 0,
+        }
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        [&self.right, &self.down, &self.diag, &self.anti]
+            .iter()
+            .map(|s| s.heap_bytes())
+            .sum::<usize>()
+            + [
+                &self.force,
+                &self.per_pascal,
+                &self.rhs,
+                &self.v,
+                &self.r,
+                &self.z,
+                &self.p,
+                &self.q,
+                &self.inv_diag,
+            ]
+            .iter()
+            .map(|s| s.heap_bytes())
+            .sum::<usize>()
+            + self.constraints.capacity() * std::mem::size_of::<Constraint>()
+            + self.inertia.capacity() * 8
+    }
+
+    /// Springs and their linearisation, gravity, damping-free forces and the pressure force per
+    /// pascal at the positions `x`.
+    fn forces(&mut self, model: &Model, x: &Soa) {
+        let (nx, nz) = (model.grid.nx, model.grid.nz);
+        let c = &model.springs;
+        let n = nx * nz;
+        for k in 0..n {
+            self.force.set(k, model.gravity * model.mass(k));
+        }
+        for j in 0..nz {
+            for i in 0..nx {
+                let a = j * nx + i;
+                let mut add = |set: &mut SpringSet, e: usize, a: usize, b: usize, k, l| {
+                    let f = set.set(e, x.get(a), x.get(b), k, l);
+                    let (fa, fb) = (self.force.get(a) + f, self.force.get(b) - f);
+                    self.force.set(a, fa);
+                    self.force.set(b, fb);
+                };
+                if i + 1 < nx {
+                    add(&mut self.right, a, a, a + 1, c.structural, c.rest_x);
+                }
+                if j + 1 < nz {
+                    add(&mut self.down, a, a, a + nx, c.structural, c.rest_z);
+                    if i + 1 < nx {
+                        add(&mut self.diag, a, a, a + nx + 1, c.shear, c.rest_diag);
+                        add(&mut self.anti, a, a + 1, a + nx, c.shear, c.rest_diag);
+                    }
+                }
+            }
+        }
+        // The pressure force of 1 Pa on every particle: S N_i (or by area).
+        if self.regions.list.is_empty() && self.regions.extra.is_empty() {
+            return;
+        }
+        let pp = &mut self.per_pascal;
+        for v in [&mut pp.x, &mut pp.y, &mut pp.z] {
+            v.fill(0.0);
+        }
+        for j in 0..nz {
+            let r = j * nx..(j + 1) * nx;
+            let mut out = RowMut {
+                x: &mut pp.x[r.clone()],
+                y: &mut pp.y[r.clone()],
+                z: &mut pp.z[r.clone()],
+            };
+            let here = row(x, nx, j);
+            match model.pressure_force {
+                PressureForce::Thesis => {
+                    let below = row(x, nx, j.saturating_sub(1));
+                    let above = row(x, nx, (j + 1).min(nz - 1));
+                    pressure::add_row(&mut out, here, below, above, model.area_per_particle);
+                }
+                PressureForce::Area => {
+                    let below = (j > 0).then(|| row(x, nx, j - 1));
+                    let above = (j + 1 < nz).then(|| row(x, nx, j + 1));
+                    pressure::add_row_area(&mut out, here, below, above, |_| 1.0);
+                }
+            }
+        }
+        for k in 0..n {
+            let dp = match self.regions.of(k) {
+                Some(r) => self.regions.list[r].pressure - self.regions.atmosphere,
+                None => self.regions.extra.get(k).copied().unwrap_or(0.0),
+            };
+            if dp != 0.0 {
+                let f = self.force.get(k) + self.per_pascal.get(k) * dp;
+                self.force.set(k, f);
+            }
+        }
+    }
+
+    /// `q = A p` (unfiltered) on every particle, or with `only` on those particles (`p` zero on
+    /// the others).
+    fn apply(&mut self, sys: &System<'_>, which: Which, only: Option<&[u32]>) {
+        let n = sys.nx * sys.nz;
+        let p = match which {
+            Which::P => &self.p,
+            Which::V => &self.v,
+        };
+        // The regions' dot products g_r . p, in particle order.
+        self.dots.clear();
+        self.dots.resize(sys.regions.list.len(), 0.0);
+        if !self.dots.is_empty() {
+            let mut add = |k: usize| {
+                if let Some(r) = sys.regions.of(k) {
+                    self.dots[r] += self.per_pascal.get(k).dot(p.get(k));
+                }
+            };
+            // `p` is zero off the list, `v` is not.
+            match (only, which) {
+                (Some(list), Which::P) => list.iter().for_each(|&k| add(k as usize)),
+                _ => (0..n).for_each(add),
+            }
+        }
+        match only {
+            Some(list) => {
+                for &k in list {
+                    let y = self.row_apply(sys, p, k as usize);
+                    self.q.set(k as usize, y);
+                }
+            }
+            None => {
+                for k in 0..n {
+                    let y = self.row_apply(sys, p, k);
+                    self.q.set(k, y);
+                }
+            }
+        }
+    }
+
+    /// Row `a` of `A p`, with the regions' dot products in `self.dots`.
+    #[inline(always)]
+    fn row_apply(&self, sys: &System<'_>, p: &Soa, a: usize) -> Vec3 {
+        let (nx, nz) = (sys.nx, sys.nz);
+        let (i, j) = (a % nx, a / nx);
+        let pa = p.get(a);
+        let mut h = Vec3::ZERO;
+        if i + 1 < nx {
+            h += self.right.apply(a, pa - p.get(a + 1));
+        }
+        if i > 0 {
+            h += self.right.apply(a - 1, pa - p.get(a - 1));
+        }
+        if j + 1 < nz {
+            h += self.down.apply(a, pa - p.get(a + nx));
+            if i + 1 < nx {
+                h += self.diag.apply(a, pa - p.get(a + nx + 1));
+            }
+            if i > 0 {
+                h += self.anti.apply(a - 1, pa - p.get(a + nx - 1));
+            }
+        }
+        if j > 0 {
+            h += self.down.apply(a - nx, pa - p.get(a - nx));
+            if i > 0 {
+                h += self.diag.apply(a - nx - 1, pa - p.get(a - nx - 1));
+            }
+            if i + 1 < nx {
+                h += self.anti.apply(a - nx, pa - p.get(a - nx + 1));
+            }
+        }
+        let mut y = pa * self.inertia[a] + h * sys.dt2;
+        if let Some(r) = sys.regions.of(a) {
+            y += self.per_pascal.get(a) * (self.gas[r] * self.dots[r]);
+        }
+        y
+    }
+
+    /// The inverse diagonal of `A`.
+    fn precondition(&mut self, sys: &System<'_>) {
+        let (nx, nz) = (sys.nx, sys.nz);
+        for j in 0..nz {
+            for i in 0..nx {
+                let a = j * nx + i;
+                let mut h = Vec3::ZERO;
+                if i + 1 < nx {
+                    h += self.right.diagonal(a);
+                }
+                if i > 0 {
+                    h += self.right.diagonal(a - 1);
+                }
+                if j + 1 < nz {
+                    h += self.down.diagonal(a);
+                    if i + 1 < nx {
+                        h += self.diag.diagonal(a);
+                    }
+                    if i > 0 {
+                        h += self.anti.diagonal(a - 1);
+                    }
+                }
+                if j > 0 {
+                    h += self.down.diagonal(a - nx);
+                    if i > 0 {
+                        h += self.diag.diagonal(a - nx - 1);
+                    }
+                    if i + 1 < nx {
+                        h += self.anti.diagonal(a - nx);
+                    }
+                }
+                let mut d = Vec3::splat(self.inertia[a]) + h * sys.dt2;
+                if let Some(r) = sys.regions.of(a) {
+                    let g = self.per_pascal.get(a);
+                    d += g * g * self.gas[r];
+                }
+                self.inv_diag.set(a, Vec3::ONE / d);
+            }
+        }
+    }
+
+    /// Solves `A v = rhs` for the free directions, the constrained ones fixed at their values,
+    /// by the filtered, preconditioned conjugate gradient from the current `v`. Returns the
+    /// iterations taken.
+    fn solve(&mut self, sys: &System<'_>) -> usize {
+        let n = self.v.len();
+        // The particles with a free direction: the solve runs over them alone.
+        let mut active = std::mem::take(&mut self.active);
+        active.clear();
+        for k in 0..n {
+            let c = self.constraints[k];
+            self.v.set(k, c.filter(self.v.get(k)) + c.value());
+            self.r.set(k, Vec3::ZERO);
+            self.z.set(k, Vec3::ZERO);
+            self.p.set(k, Vec3::ZERO);
+            if matches!(c, Constraint::Free | Constraint::Normal { .. }) {
+                active.push(k as u32);
+            }
+        }
+        self.apply(sys, Which::V, Some(&active));
+        let mut bb = 0.0;
+        let mut rz = 0.0;
+        let mut rr = 0.0;
+        for &k in &active {
+            let k = k as usize;
+            let c = self.constraints[k];
+            let b = c.filter(self.rhs.get(k) + c.slip());
+            bb += b.length_squared();
+            let r = c.filter(self.rhs.get(k) + c.slip() - self.q.get(k));
+            self.r.set(k, r);
+            let z = c.filter(r * self.inv_diag.get(k));
+            self.z.set(k, z);
+            self.p.set(k, z);
+            rz += r.dot(z);
+            rr += r.length_squared();
+        }
+        let goal = CG_TOLERANCE * CG_TOLERANCE * bb.max(Real::MIN_POSITIVE);
+        let mut it = 0;
+        while rr > goal && it < CG_MAX_ITERATIONS {
+            self.apply(sys, Which::P, Some(&active));
+            let mut pq = 0.0;
+            for &k in &active {
+                let k = k as usize;
+                let q = self.constraints[k].filter(self.q.get(k));
+                self.q.set(k, q);
+                pq += self.p.get(k).dot(q);
+            }
+            if pq.is_nan() || pq <= 0.0 {
+                break;
+            }
+            let alpha = rz / pq;
+            let (mut rz_new, mut rr_new) = (0.0, 0.0);
+            for &k in &active {
+                let k = k as usize;
+                self.v.set(k, self.v.get(k) + self.p.get(k) * alpha);
+                let r = self.r.get(k) - self.q.get(k) * alpha;
+                self.r.set(k, r);
+                let z = self.constraints[k].filter(r * self.inv_diag.get(k));
+                self.z.set(k, z);
+                rz_new += r.dot(z);
+                rr_new += r.length_squared();
+            }
+            let beta = rz_new / rz;
+            for &k in &active {
+                let k = k as usize;
+                self.p.set(k, self.z.get(k) + self.p.get(k) * beta);
+            }
+            rz = rz_new;
+            rr = rr_new;
+            it += 1;
+        }
+        self.active = active;
+        it
+    }
+
+    /// One step of `dt` s (see the module docs). Returns the largest squared distance (m^2) of
+    /// a new position of a particle no hand holds from `fused.reference`.
+    pub fn step(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        control: &mut Control,
+        air: Air<'_>,
+        dt: Real,
+        fused: Fused<'_>,
+    ) -> Real {
+        state.use_previous_positions(dt);
+        let n = state.len();
+        let (nx, nz) = (model.grid.nx, model.grid.nz);
+        // The air as regions; a pressure known now (explicit) is no gas spring in the solve.
+        air.model
+            .regions(air.params, model, control.air_enabled, &mut self.regions);
+        let implicit_air = air.timing == Timing::EndOfStep;
+        self.gas.clear();
+        self.gas.extend(self.regions.list.iter().map(|r| {
+            if implicit_air {
+                dt * dt * r.stiffness
+            } else {
+                0.0
+            }
+        }));
+        self.forces(model, &state.x);
+        let c = model.damping;
+        for k in 0..n {
+            let m = model.mass(k);
+            self.inertia[k] = m * (1.0 + dt * c);
+            let v = state.velocity(k, dt);
+            self.rhs.set(k, v * m + self.force.get(k) * dt);
+            // First guess: the velocity after gravity alone (exact in free fall).
+            self.v.set(k, v + model.gravity * dt);
+        }
+        // Constraints: the hands, then contacts where a particle touches or would reach a
+        // collider during the step at its current speed.
+        self.constraints.fill(Constraint::Free);
+        for (k, target) in control.active() {
+            self.constraints[k] = Constraint::Fixed((target - state.x.get(k)) / dt);
+        }
+        for k in 0..n {
+            if self.constraints[k] != Constraint::Free {
+                continue;
+            }
+            let (x, v) = (state.x.get(k), state.velocity(k, dt));
+            self.constraints[k] = contact_constraint(model, k, x, v, dt, state.contact[k]);
+        }
+        // `System` borrows the regions; the rest of `self` is used mutably below.
+        let regions = std::mem::take(&mut self.regions);
+        let sys = System {
+            nx,
+            nz,
+            dt2: dt * dt,
+            regions: &regions,
+        };
+        self.precondition(&sys);
+        self.iterations = 0;
+        for pass in 0..CONTACT_PASSES {
+            self.iterations += self.solve(&sys);
+            // `A v+`: the constraint forces are `(A v+ - b) / dt`.
+            self.apply(&sys, Which::V, None);
+            if pass + 1 == CONTACT_PASSES {
+                break;
+            }
+            // Release contacts that pull or slip; constrain particles that would land inside
+            // a collider.
+            let mut changed = false;
+            for k in 0..n {
+                match self.constraints[k] {
+                    Constraint::Normal { n: normal, .. } => {
+                        let lambda = self.q.get(k) - self.rhs.get(k);
+                        if lambda.dot(normal) < 0.0 {
+                            self.constraints[k] = Constraint::Free;
+                            changed = true;
+                        }
+                    }
+                    Constraint::Free => {
+                        let x = state.x.get(k);
+                        let to = x + self.v.get(k) * dt;
+                        if let Some(c) = landing_constraint(model, k, x, to, dt) {
+                            self.constraints[k] = c;
+                            changed = true;
+                        }
+                    }
+                    Constraint::Stick { n: normal, vn, mu } => {
+                        // Inside the friction cone, or sliding, or pulling free.
+                        let lambda = self.q.get(k) - self.rhs.get(k);
+                        let push = lambda.dot(normal);
+                        let shear = (lambda - normal * push).length();
+                        if push < 0.0 {
+                            self.constraints[k] = Constraint::Free;
+                            changed = true;
+                        } else if shear > mu * push {
+                            // Slides: the friction gives mu times the normal force, in the
+                            // direction the grip would have pushed.
+                            let t = (lambda - normal * push) / shear;
+                            self.constraints[k] = Constraint::Normal {
+                                n: normal,
+                                vn,
+                                mu,
+                                slip: t * (mu * push),
+                            };
+                            changed = true;
+                        }
+                    }
+                    Constraint::Fixed(_) => {}
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        // The constraint forces of the final solution (in `q`): the hands' and the contacts'.
+        self.regions = regions;
+        let Motion::Previous(prev) = &mut state.motion else {
+            unreachable!("converted above")
+        };
+        let mut work = 0.0;
+        for (g, target) in control.grabs.iter_mut().zip(&control.targets) {
+            let k = g.particle;
+            match target {
+                Some(target) => {
+                    g.force = (self.q.get(k) - self.rhs.get(k)) / dt;
+                    work += checks::work(g.force, state.x.get(k), *target).abs();
+                }
+                None => g.force = Vec3::ZERO,
+            }
+        }
+        control.hand_work += work;
+        // Friction, the move, and any contact the solve did not foresee.
+        let mut moved: Real = 0.0;
+        let mut volume_change = vec![0.0; self.regions.list.len()];
+        for k in 0..n {
+            let x = state.x.get(k);
+            let mut v = self.v.get(k);
+            let mut touched = false;
+            match self.constraints[k] {
+                Constraint::Normal {
+                    n: normal, slip, ..
+                } => {
+                    let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
+                    touched = push > 0.0;
+                    // Kinetic friction stops a slide; it never reverses it.
+                    let vt = v - normal * normal.dot(v);
+                    if touched && vt.dot(slip) > 0.0 {
+                        v -= vt;
+                    }
+                }
+                Constraint::Stick { n: normal, .. } => {
+                    let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
+                    touched = push > 0.0;
+                }
+                _ => {}
+            }
+            let mut to = x + v * dt;
+            if let Constraint::Fixed(_) = self.constraints[k] {
+                to = control
+                    .active()
+                    .find(|&(p, _)| p == k)
+                    .map_or(to, |(_, t)| t);
+            } else if !model.colliders.is_empty() {
+                let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
+                let (p, hit) =
+                    contact::resolve_scaled(&model.colliders, x, to, model.radius, scale);
+                to = p;
+                touched |= hit;
+                if let Some(reference) = fused.reference {
+                    moved = moved.max((to - reference.get(k)).length_squared());
+                }
+            }
+            if let Some(r) = self.regions.of(k) {
+                volume_change[r] += self.per_pascal.get(k).dot(to - x);
+            }
+            state.contact[k] = touched;
+            prev.set(k, to);
+        }
+        std::mem::swap(prev, &mut state.x);
+        // The pressure the step applied: the gas spring's, linearised at the end of the step.
+        if let crate::air::AirModel::Thesis(b) = air.model
+            && control.air_enabled
+            && let Some(r) = self.regions.list.first()
+        {
+            b.applied_pressure = if implicit_air {
+                (r.pressure - r.stiffness * volume_change[0]).max(0.0)
+            } else {
+                r.pressure
+            };
+        }
+        fused.measures.remeasure_all(
+            &model.grid,
+            &state.x,
+            model.sticking,
+            model.radius,
+            fused.rows_per_task,
+        );
+        moved
+    }
+}
+
+/// Which vector [`Implicit::apply`] multiplies.
+#[derive(Clone, Copy)]
+enum Which {
+    P,
+    V,
+}
+
+/// The contact constraint of particle `k` at `x` moving at `v` (m/s) over a step of `dt` s:
+/// against the collider it is nearest to penetrating, if it touches one (`touching` last
+/// step, within its radius plus a 1 % skin) or would reach it at its current speed.
+fn contact_constraint(
+    model: &Model,
+    k: usize,
+    x: Vec3,
+    v: Vec3,
+    dt: Real,
+    touching: bool,
+) -> Constraint {
+    let mut best = Constraint::Free;
+    let mut nearest = Real::INFINITY;
+    let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
+    for c in &model.colliders {
+        let (d, n) = c.distance(x);
+        let gap = d - model.radius;
+        let skin = if touching { 0.01 * model.radius } else { 0.0 };
+        let reach = (-v.dot(n)).max(0.0) * dt;
+        if gap <= skin.max(reach) && gap < nearest {
+            nearest = gap;
+            best = Constraint::Stick {
+                n,
+                vn: (-gap / dt).max(0.0),
+                mu: c.friction * scale,
+            };
+        }
+    }
+    best
+}
+
+/// The contact constraint of a free particle moving from `x` to `to` in a step of `dt` s, if it
+/// would end inside a collider.
+fn landing_constraint(model: &Model, k: usize, x: Vec3, to: Vec3, dt: Real) -> Option<Constraint> {
+    let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
+    let mut best = None;
+    let mut deepest = 0.0;
+    for c in &model.colliders {
+        let (d, n) = c.distance(to);
+        let depth = model.radius - d;
+        if depth > deepest {
+            deepest = depth;
+            let gap = c.distance(x).0 - model.radius;
+            best = Some(Constraint::Stick {
+                n,
+                vn: (-gap / dt).max(0.0),
+                mu: c.friction * scale,
+            });
+        }
+    }
+    best
+}

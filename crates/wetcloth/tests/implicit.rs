@@ -1,0 +1,230 @@
+//! The implicit integrator (backward Euler, conjugate gradient) against closed forms at large
+//! steps. Each test states the law, the set-up and why its tolerance is what it is.
+
+use wetcloth::{AirParams, ClothParams, Collider, Integrator, Real, SimConfig, Simulation, Vec3};
+
+/// A small cloth with no air, no grabs, no colliders, no damping, integrated implicitly at `dt`.
+fn bare(n: usize, dt: Real) -> SimConfig {
+    let mut cfg = SimConfig {
+        cloth: ClothParams {
+            resolution: [n, n],
+            size: [0.1, 0.1],
+            mass: 0.01,
+            position: Vec3::new(0.0, 1.0, 0.0),
+            self_collision: false,
+            damping: 0.0,
+            ..Default::default()
+        },
+        air: AirParams {
+            enabled: false,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    cfg.simulation.time_step = dt;
+    cfg.simulation.integrator = Integrator::Implicit;
+    cfg
+}
+
+fn run(sim: &mut Simulation, seconds: Real) {
+    let steps = (seconds / sim.time_step()).round() as u64;
+    for _ in 0..steps {
+        sim.step().expect("stable step");
+    }
+}
+
+fn mean(v: &[Real]) -> Real {
+    v.iter().sum::<Real>() / v.len() as Real
+}
+
+/// Free fall under backward Euler: v_n = -g n dt exactly, y_n = y0 - g dt^2 n (n + 1) / 2, which
+/// is the parabola less g t dt / 2: first order. At 1/600 s and 1/1200 s the error is that, to
+/// round-off, and halves with the step.
+#[test]
+fn implicit_free_fall_is_first_order() {
+    let mut errors = Vec::new();
+    for dt in [1.0 / 600.0, 1.0 / 1200.0] {
+        let mut sim = Simulation::new(bare(6, dt)).unwrap();
+        run(&mut sim, 0.5);
+        let t = sim.time();
+        let exact = 1.0 - 0.5 * 9.8 * t * t;
+        let method = exact - 0.5 * 9.8 * t * dt;
+        for &y in &sim.positions().y {
+            assert!((y - method).abs() < 1e-9, "dt = {dt}: {y} vs {method}");
+        }
+        errors.push(mean(&sim.positions().y) - exact);
+    }
+    let ratio = errors[0] / errors[1];
+    assert!((ratio - 2.0).abs() < 1e-6, "first order: {errors:?}");
+}
+
+/// Friction on a 20-degree slope at 1/600 s: with mu = 0.5 > tan 20 the cloth does not move;
+/// with mu = 0.2 its velocity grows at g (sin 20 - mu cos 20), to 5 % (the velocity is exact up
+/// to the solver's tolerance; the position lags by a t dt / 2, first order).
+#[test]
+fn implicit_friction_on_a_slope_holds_or_slides() {
+    let theta: Real = 20f64.to_radians();
+    let g = 9.8;
+    for mu in [0.5, 0.2] {
+        let mut cfg = bare(5, 1.0 / 600.0);
+        cfg.simulation.gravity = Vec3::new(g * theta.sin(), -g * theta.cos(), 0.0);
+        cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, mu)];
+        cfg.cloth.position.y = cfg.cloth.particle_radius();
+        let mut sim = Simulation::new(cfg).unwrap();
+        let x0 = mean(&sim.positions().x);
+        run(&mut sim, 0.5);
+        let t = sim.time();
+        let dx = mean(&sim.positions().x) - x0;
+        let v = mean(&sim.velocities().x);
+        let a = (g * (theta.sin() - mu * theta.cos())).max(0.0);
+        if mu == 0.5 {
+            assert!(dx.abs() < 1e-12, "static friction holds: moved {dx}");
+        } else {
+            assert!((v / t - a).abs() < 0.05 * a, "slides at {} vs {a}", v / t);
+            let expect = 0.5 * a * t * (t + sim.time_step());
+            assert!((dx - expect).abs() < 0.05 * expect, "{dx} vs {expect}");
+        }
+        let y = sim
+            .positions()
+            .y
+            .iter()
+            .fold(0.0 as Real, |m, b| m.max((b - sim.particle_radius()).abs()));
+        assert!(y < 1e-9, "stays on the plane: {y}");
+    }
+}
+
+/// A cloth hanging from two corners, settled: the hands carry its weight, to 1e-3.
+#[test]
+fn implicit_hanging_cloth_hands_carry_its_weight() {
+    let mut cfg = bare(11, 1.0 / 600.0);
+    cfg.cloth.damping = 4.0;
+    cfg.grabs = vec![
+        wetcloth::GrabSpec::lift([0, 0], 0.0, 10.0, 0.0),
+        wetcloth::GrabSpec::lift([10, 0], 0.0, 10.0, 0.0),
+    ];
+    let mut sim = Simulation::new(cfg).unwrap();
+    run(&mut sim, 5.0);
+    let weight = 0.01 * 9.8;
+    let f = sim.grab_force();
+    assert!((f.y - weight).abs() < 1e-3 * weight, "{f} vs {weight}");
+    assert!(
+        f.x.abs() < 1e-3 * weight && f.z.abs() < 1e-3 * weight,
+        "{f}"
+    );
+    let ke = sim.metrics().kinetic_energy;
+    assert!(ke < 1e-6, "settled: {ke} J");
+}
+
+/// A 12 cm cloth of the thesis' spacing and areal mass (21 x 21), lying stuck on the table with
+/// no air under it, air force on, no self-collision, pinched at its centre and lifted 5 mm from
+/// t = 0.02 s to 0.12 s, then held.
+fn small_pinch(integrator: Integrator, dt: Real) -> SimConfig {
+    let mut cfg = SimConfig::thesis_demo();
+    cfg.air.trapped_air = 0.0;
+    cfg.cloth.position.y = cfg.cloth.particle_radius();
+    cfg.cloth.resolution = [21, 21];
+    cfg.cloth.size = [0.12, 0.12];
+    cfg.cloth.mass = 0.02 * 0.16;
+    cfg.cloth.self_collision = false;
+    cfg.grabs = vec![wetcloth::GrabSpec::lift([10, 10], 0.02, 0.12, 0.005)];
+    cfg.simulation.integrator = integrator;
+    cfg.simulation.time_step = dt;
+    cfg
+}
+
+/// What the thesis measures on a pinch: the hand's force (N), the lifted area (m^2: the cloth
+/// area not in contact), and the tent's height (m), at the end of the lift.
+fn pinch_measures(integrator: Integrator, dt: Real) -> [Real; 3] {
+    let mut sim = Simulation::new(small_pinch(integrator, dt)).unwrap();
+    run(&mut sim, 0.15);
+    let m = sim.metrics();
+    [
+        m.grab_force,
+        (1.0 - m.contact_fraction) * 0.12 * 0.12,
+        m.max_height,
+    ]
+}
+
+/// The pinch of a cloth stuck by the atmosphere, as the explicit integrator at its fine step
+/// (1/12000 s) measures it: the hand's force (5.69 N: the atmosphere on the pinched particle's
+/// area plus the springs, with the neighbours slipping 0.37 mm towards the pinch), and the tent's
+/// height. The implicit integrator agrees within 1 % from 1/120 s to 1/2400 s (measured: 0.02 %),
+/// the 10 % target with room; the neighbours' slip is inside the solve (static friction as a
+/// constraint, released into kinetic friction when the force leaves the cone), so the slip and
+/// the force do not depend on the step. The finer step is closer than the coarsest.
+#[test]
+fn implicit_pinch_agrees_with_the_explicit_integrator_and_converges() {
+    let reference = pinch_measures(Integrator::Verlet, 1.0 / 12000.0);
+    let mut errors = Vec::new();
+    for dt in [1.0 / 120.0, 1.0 / 300.0, 1.0 / 600.0, 1.0 / 2400.0] {
+        let m = pinch_measures(Integrator::Implicit, dt);
+        let force = (m[0] - reference[0]) / reference[0];
+        assert!(force.abs() < 0.01, "dt = {dt}: {m:?} vs {reference:?}");
+        assert!((m[2] - reference[2]).abs() < 0.01 * reference[2], "{m:?}");
+        errors.push(force.abs());
+    }
+    assert!(errors[3] < errors[0], "converges: {errors:?}");
+}
+
+/// A vacuum pinch held for 2 s at 1/600 s: after the lift the cloth neither creeps (no particle
+/// moves by more than 1 micrometre over the last 1.5 s) nor jitters (kinetic energy below
+/// 1e-9 J, the hand's force steady to 1e-4).
+#[test]
+fn implicit_vacuum_pinch_held_neither_creeps_nor_jitters() {
+    let mut sim = Simulation::new(small_pinch(Integrator::Implicit, 1.0 / 600.0)).unwrap();
+    run(&mut sim, 0.5);
+    let before = sim.positions().clone();
+    let f0 = sim.metrics().grab_force;
+    let mut forces = Vec::new();
+    for _ in 0..15 {
+        run(&mut sim, 0.1);
+        let m = sim.metrics();
+        assert!(m.kinetic_energy < 1e-9, "jitters: {m:?}");
+        forces.push(m.grab_force);
+    }
+    let creep = (0..before.len())
+        .map(|k| (sim.positions().get(k) - before.get(k)).length())
+        .fold(0.0, Real::max);
+    assert!(creep < 1e-6, "creeps {creep} m");
+    for f in forces {
+        assert!((f - f0).abs() < 1e-4 * f0, "{f} vs {f0}");
+    }
+    assert!(f0 > 1.0, "the atmosphere holds the cloth: {f0} N");
+}
+
+/// The thesis demo at 1/120 s (a 30 cm cloth over 400 cm^3 of air, pinched and lifted 5 cm;
+/// here 20 x 20 particles and the first 0.6 s): no blow-up, and Boyle's law on every row.
+#[test]
+fn implicit_thesis_demo_is_stable_at_1_120_s_and_keeps_boyle() {
+    let mut cfg = SimConfig::thesis_demo();
+    cfg.cloth.resolution = [20, 20];
+    cfg.cloth.self_collision = false;
+    cfg.grabs = vec![wetcloth::GrabSpec::lift([10, 10], 0.05, 0.5, 0.05)];
+    cfg.simulation.integrator = Integrator::Implicit;
+    cfg.simulation.time_step = 1.0 / 120.0;
+    let k = cfg.air.atmospheric_pressure * cfg.air.trapped_air;
+    let mut sim = Simulation::new(cfg).unwrap();
+    for _ in 0..12 {
+        run(&mut sim, 0.05);
+        let m = sim.metrics();
+        assert!(
+            (m.air_pressure * m.air_volume - k).abs() < 1e-9 * k,
+            "{m:?}"
+        );
+    }
+    let m = sim.metrics();
+    assert!(m.max_height > 0.04, "lifted: {m:?}");
+}
+
+/// A cloth dropped 2 mm onto the table with the air force on, settled for 1 s at 1/600 s: its
+/// kinetic energy is below 1e-6 J (backward Euler damps what the contact leaves).
+#[test]
+fn implicit_settled_cloth_is_at_rest() {
+    let mut cfg = wetcloth::bench::thesis_workload(20);
+    cfg.simulation.integrator = Integrator::Implicit;
+    cfg.simulation.time_step = 1.0 / 600.0;
+    let mut sim = Simulation::new(cfg).unwrap();
+    run(&mut sim, 1.0);
+    let ke = sim.metrics().kinetic_energy;
+    assert!(ke < 1e-6, "{ke} J");
+}
