@@ -59,6 +59,7 @@ pub(crate) fn check_volume(model: &Model, volume: Real, time: Real) -> Result<()
 
 /// The cloth's energy budget (see the module docs).
 #[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct EnergyAudit {
     /// Mechanical energy when the audit started, J.
     start: Real,
