@@ -420,13 +420,21 @@ fn bake(
 
         let write_frame =
             |sim: &Simulation, csv: &mut MetricsCsv<Appended>, k: u64| -> Result<(), CliError> {
+                let metrics = sim.metrics();
+                if let Some(what) = non_finite(sim.positions(), &metrics) {
+                    return Err(CliError::Unwritable {
+                        frame: k,
+                        what,
+                        dir: dir.clone(),
+                    });
+                }
                 let path = frames_dir.join(frame_file_name(k));
                 let normals = grid.vertex_normals(sim.positions());
                 write_atomically(&path, |w| {
                     write_obj(w, &grid, sim.positions(), &normals, &uvs)
                 })
                 .map_err(CliError::output(&path))?;
-                csv.write_row(k, &sim.metrics())
+                csv.write_row(k, &metrics)
                     .map_err(CliError::output(&csv_path))?;
                 if k == 0 {
                     wetcloth_export::write_rest_obj(&dir).map_err(|e| match e {
@@ -546,6 +554,22 @@ fn bake(
             Err(e)
         }
     }
+}
+
+/// What is not finite in a frame about to be written (positions, metrics), if anything: the
+/// writers' last line of defence, so that no NaN or infinity reaches a file of a run, whatever
+/// the core's checks missed.
+fn non_finite(x: &wetcloth::Soa, metrics: &wetcloth::FrameMetrics) -> Option<String> {
+    for (axis, v) in [("x", &x.x), ("y", &x.y), ("z", &x.z)] {
+        if let Some(k) = v.iter().position(|c| !c.is_finite()) {
+            return Some(format!("{axis} = {} at vertex {}", v[k], k + 1));
+        }
+    }
+    COLUMNS
+        .iter()
+        .zip(metrics.values())
+        .find(|(_, v)| !v.is_finite())
+        .map(|(name, v)| format!("{name} = {v} in metrics.csv"))
 }
 
 /// A file `metrics.csv` is appended to: drops the first `skip` bytes written (the header a
@@ -705,6 +729,40 @@ mod tests {
             assert_eq!(frame_step(k, 60.0, dt), 200 * k);
             assert_eq!(frame_step(k, 20.0, dt), 600 * k);
         }
+    }
+
+    /// The writers refuse what the core's checks might let through: a non-finite position or
+    /// metric is never written (`wetcloth run` then exits 1 with run.json saying "failed").
+    #[test]
+    fn the_writers_refuse_non_finite_frames() {
+        let sim = Simulation::new({
+            let mut c = SimConfig::thesis_demo();
+            c.cloth.resolution = [5, 5];
+            c.grabs.clear();
+            c
+        })
+        .unwrap();
+        let (x, m) = (sim.positions().clone(), sim.metrics());
+        assert_eq!(non_finite(&x, &m), None);
+        let mut bad = x.clone();
+        bad.y[7] = Real::NAN;
+        assert_eq!(non_finite(&bad, &m).as_deref(), Some("y = NaN at vertex 8"));
+        let mut bad = x.clone();
+        bad.z[0] = Real::INFINITY;
+        assert!(non_finite(&bad, &m).unwrap().starts_with("z = inf"));
+        let mut worse = m;
+        worse.kinetic_energy = Real::INFINITY;
+        assert_eq!(
+            non_finite(&x, &worse).as_deref(),
+            Some("kinetic_energy = inf in metrics.csv")
+        );
+        let e = CliError::Unwritable {
+            frame: 4,
+            what: "x = NaN at vertex 1".into(),
+            dir: "out/d".into(),
+        };
+        assert_eq!(e.exit_code(), 1);
+        assert!(e.to_string().contains("frame 4 would hold x = NaN"));
     }
 
     #[test]

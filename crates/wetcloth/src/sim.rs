@@ -467,7 +467,7 @@ impl Simulation {
         if self.state.steps.is_multiple_of(checks::AUDIT_INTERVAL) {
             let dt = self.time_step();
             self.audit
-                .check(&self.model, &self.state, self.control.hand_work, dt, time)?;
+                .check(&self.model, &self.state, &self.control, dt, time)?;
         }
         Ok(())
     }
