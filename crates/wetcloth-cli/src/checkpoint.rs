@@ -157,10 +157,21 @@ mod tests {
     use super::*;
     use wetcloth::{SimConfig, Simulation};
 
-    fn saved() -> Saved {
+    fn config(pockets: bool) -> SimConfig {
         let mut cfg = SimConfig::thesis_demo();
         cfg.cloth.resolution = [6, 5];
-        cfg.grabs.clear();
+        cfg.grabs = vec![wetcloth::GrabSpec::lift([2, 2], 0.0, 0.01, 0.01)];
+        if pockets {
+            cfg.air.model = wetcloth::params::AirModelKind::Pockets;
+        }
+        cfg
+    }
+
+    fn saved() -> Saved {
+        saved_of(config(false))
+    }
+
+    fn saved_of(cfg: SimConfig) -> Saved {
         let mut sim = Simulation::new(cfg).unwrap();
         sim.advance(3).unwrap();
         Saved {
@@ -194,5 +205,114 @@ mod tests {
         let mut longer = bytes.clone();
         longer.push(0);
         assert!(decode(&longer).unwrap_err().contains("truncated"));
+    }
+
+    /// The header of `payload` with a correct length and checksum: damage that gets past
+    /// the checksum, so that the decoder and the restore see it.
+    fn resealed(payload: &[u8]) -> Vec<u8> {
+        let mut out = encode(&saved())[..HEADER].to_vec();
+        out[16..24].copy_from_slice(&(payload.len() as u64).to_le_bytes());
+        out[24..28].copy_from_slice(&crc32fast::hash(payload).to_le_bytes());
+        out.extend_from_slice(payload);
+        out
+    }
+
+    /// Damaged checkpoints, the damage resealed with a right checksum (what a faulty disk
+    /// or a hand edit could leave): reading, restoring and stepping never panic; the result is
+    /// a refusal, a blow-up or a run.
+    fn damaged_checkpoints_never_panic(cases: u32) {
+        for pockets in [false, true] {
+            damaged_checkpoints_of(config(pockets), cases / 2);
+        }
+    }
+
+    fn damaged_checkpoints_of(cfg: SimConfig, cases: u32) {
+        use proptest::prelude::*;
+        use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+        let base = encode(&saved_of(cfg.clone()));
+        let payload = base[HEADER..].to_vec();
+        let seed: u64 = std::env::var("WETCLOTH_FUZZ_SEED")
+            .ok()
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or(0xc4ec);
+        let mut bytes = [0u8; 32];
+        bytes[..8].copy_from_slice(&seed.to_le_bytes());
+        let mut runner = TestRunner::new_with_rng(
+            Config {
+                cases,
+                failure_persistence: None,
+                ..Config::default()
+            },
+            TestRng::from_seed(RngAlgorithm::ChaCha, &bytes),
+        );
+        let n = payload.len();
+        let damage = (
+            prop::collection::vec((0..n, any::<u8>()), 1..6),
+            prop_oneof![4 => Just(None), 1 => (0..n).prop_map(Some)],
+            any::<bool>(),
+        );
+        let stats = std::cell::Cell::new((0u32, 0u32, 0u32));
+        runner
+            .run(&damage, |(edits, cut, reseal)| {
+                let mut p = payload.clone();
+                for (i, b) in edits {
+                    p[i] = b;
+                }
+                if let Some(c) = cut {
+                    p.truncate(c);
+                }
+                let file = if reseal {
+                    resealed(&p)
+                } else {
+                    let mut f = base[..HEADER].to_vec();
+                    f.extend_from_slice(&p);
+                    f
+                };
+                let (refused, failed, ran) = stats.get();
+                match decode(&file) {
+                    Err(why) => {
+                        prop_assert!(!why.is_empty());
+                        stats.set((refused + 1, failed, ran));
+                    }
+                    Ok(s) => match Simulation::restore(cfg.clone(), s.sim) {
+                        Err(_) => stats.set((refused + 1, failed, ran)),
+                        Ok(mut sim) => match sim.advance(40) {
+                            Err(_) => stats.set((refused, failed + 1, ran)),
+                            Ok(()) => stats.set((refused, failed, ran + 1)),
+                        },
+                    },
+                }
+                Ok(())
+            })
+            .unwrap();
+        let (refused, failed, ran) = stats.get();
+        eprintln!(
+            "damaged checkpoints ({:?} air): {cases} cases, {refused} refused, {failed} blew \
+             up, {ran} ran",
+            cfg.air.model
+        );
+    }
+
+    #[test]
+    fn damaged_checkpoints_are_refused_or_run_and_never_panic() {
+        damaged_checkpoints_never_panic(
+            std::env::var("WETCLOTH_FUZZ_CASES")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(300),
+        );
+    }
+
+    /// The long campaign: `cargo test --release -p wetcloth-cli --bin wetcloth -- --ignored
+    /// damaged_checkpoints_long` (docs/reliability.md).
+    #[test]
+    #[ignore]
+    fn damaged_checkpoints_long_campaign() {
+        damaged_checkpoints_never_panic(
+            std::env::var("WETCLOTH_FUZZ_CASES")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(100_000),
+        );
     }
 }
