@@ -18,6 +18,17 @@ pub enum CliError {
         /// The output directory.
         dir: PathBuf,
     },
+    /// A frame about to be written holds a non-finite value: refused by the writers as a last
+    /// line of defence behind the core's checks. Exit code 1.
+    #[error("frame {frame} would hold {what}; it was not written, and the {frame} frame(s) before it are in {}", dir.display())]
+    Unwritable {
+        /// The frame refused.
+        frame: u64,
+        /// What is wrong with it.
+        what: String,
+        /// The output directory.
+        dir: PathBuf,
+    },
     /// Bad input other than a scene file: a missing or damaged run folder. Exit code 2.
     #[error("{0}")]
     Input(String),
@@ -63,6 +74,7 @@ impl CliError {
             CliError::Scene(_) | CliError::Usage(_) | CliError::Input(_) => 2,
             CliError::Interrupted { .. } => 130,
             CliError::BlowUp { .. }
+            | CliError::Unwritable { .. }
             | CliError::Output { .. }
             | CliError::Setup(_)
             | CliError::Render(_) => 1,

@@ -6,6 +6,7 @@
 //! blows up, or its outputs cannot be written).
 
 mod bench;
+mod checkpoint;
 mod error;
 mod estimate;
 mod export;

@@ -11,13 +11,15 @@
 //! last with how the run ended: `complete`, `interrupted` (Ctrl-C, SIGTERM: exit 130) or
 //! `failed` (with the error), with the frames written and the time reached.
 
+use crate::checkpoint;
 use crate::error::CliError;
 use crate::estimate::{self, Available};
 use crate::interrupt::Interrupt;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde::Serialize;
 use std::fs;
-use std::io::{BufWriter, IsTerminal, Write};
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use wetcloth::metrics::COLUMNS;
@@ -52,6 +54,21 @@ pub struct RunArgs {
     #[arg(long)]
     pub force: bool,
 
+    /// Write a checkpoint (`checkpoint.bin`, the full state, replaced atomically) after every
+    /// N-th frame, starting with frame 0, and whenever the run is interrupted; 0 writes one
+    /// only when interrupted. A complete run removes it. With --resume, the interval of the run
+    /// being continued is kept.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_CHECKPOINT_EVERY)]
+    pub checkpoint_every: u64,
+
+    /// Continue the interrupted, killed or failed run in DIR from its last checkpoint: the
+    /// finished folder is byte for byte what an uninterrupted run writes, with any thread
+    /// count. A SCENE given too must be the run's scene. Refused (exit 2, naming the file)
+    /// when DIR holds no checkpoint or a complete run, when its scene.toml was changed, or
+    /// when the checkpoint is damaged.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "force"])]
+    pub resume: Option<PathBuf>,
+
     /// Also write these caches when the run completes, as `wetcloth export` does: a comma list
     /// of pc2, mdd, usda, usdc (e.g. `usdc,pc2`), each to DIR/<scene name>.<extension>.
     #[arg(long, value_name = "FORMATS", value_parser = crate::export::parse_format_list)]
@@ -59,7 +76,7 @@ pub struct RunArgs {
 }
 
 /// Units of the metrics columns, for the summary.
-const UNITS: [&str; 10] = ["s", "m^3", "Pa", "J", "", "", "m", "N", "m^3", ""];
+const UNITS: [&str; 9] = ["s", "m^3", "Pa", "J", "", "", "m", "N", "m^3"];
 
 /// Relative tolerance when counting frames, so that `duration * frame_rate` a hair below an
 /// integer by round-off (0.29 * 100 = 28.999999999999996) still counts that last frame.
@@ -100,8 +117,51 @@ enum Ending {
     Interrupted,
 }
 
+/// Frames between checkpoints unless `--checkpoint-every` says otherwise.
+pub const DEFAULT_CHECKPOINT_EVERY: u64 = 10;
+
+/// Where a run starts: from t = 0, or from a checkpoint of an earlier run in the same folder.
+struct Start {
+    /// The next frame to write.
+    frames: u64,
+    /// Simulated time of the last frame written, s.
+    time: Real,
+    /// Frames between checkpoints.
+    every: u64,
+    /// For a resumed run: the byte lengths to cut `metrics.csv` and `pockets.csv` back to, and
+    /// the checkpoint it continues from (for `run.json`).
+    resumed: Option<(u64, u64, CheckpointNote)>,
+}
+
+/// Where the last checkpoint is and how far it had got: the `checkpoint` object of `run.json`
+/// (absent once the run is complete, when the checkpoint is removed).
+#[derive(Clone, Copy, Debug, Serialize)]
+struct CheckpointNote {
+    /// The file, in the run folder: always `checkpoint.bin`.
+    file: &'static str,
+    /// Frames written when it was taken; a resumed run writes from this frame on.
+    frames: u64,
+    /// Steps taken when it was taken.
+    step: u64,
+    /// Simulated time when it was taken, s.
+    time: Real,
+}
+
+/// `run.json`: the export crate's [`RunInfo`] and, while the run is not complete, where its
+/// last checkpoint is.
+#[derive(Serialize)]
+struct RunJson<'a> {
+    #[serde(flatten)]
+    info: &'a RunInfo,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    checkpoint: Option<CheckpointNote>,
+}
+
 /// Runs `wetcloth run`.
 pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
+    if let Some(dir) = &args.resume {
+        return resume(args, dir, quiet);
+    }
     let scene = match &args.scene {
         Some(path) => wetcloth_scene::load(path)?,
         None => Scene::thesis_demo(),
@@ -123,11 +183,174 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
         eprintln!("wetcloth: {} needs {}", scene.name, est.summary());
     }
 
-    let mut sim = Simulation::new(config.clone()).map_err(|e| scene.locate(&e))?;
+    let sim = Simulation::new(config.clone()).map_err(|e| scene.locate(&e))?;
+    let start = Start {
+        frames: 0,
+        time: 0.0,
+        every: args.checkpoint_every,
+        resumed: None,
+    };
+    bake(args, &scene, &dir, sim, start, quiet)
+}
 
+/// Runs `wetcloth run --resume DIR`: checks that `dir` holds a run that can go on, and goes
+/// on from its last checkpoint.
+fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
+    let nothing =
+        |why: String| CliError::Input(format!("nothing to resume in {}: {why}", dir.display()));
+    if !dir.is_dir() {
+        return Err(nothing("no such folder".into()));
+    }
+    let json_path = dir.join("run.json");
+    let status = match fs::read(&json_path) {
+        Ok(bytes) => serde_json::from_slice::<serde_json::Value>(&bytes)
+            .ok()
+            .and_then(|v| v.get("status").and_then(|s| s.as_str()).map(String::from))
+            .ok_or_else(|| {
+                CliError::Input(format!(
+                    "{} is damaged: not the run.json of a wetcloth run",
+                    json_path.display()
+                ))
+            })?,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(nothing(format!("{} not found", json_path.display())));
+        }
+        Err(e) => {
+            return Err(CliError::Input(format!(
+                "cannot read {}: {e}",
+                json_path.display()
+            )));
+        }
+    };
+    let ckpt_path = checkpoint::path(dir);
+    if status == RunStatus::Complete.name() {
+        // A run killed between its last run.json and removing its checkpoint: the run is
+        // complete, so the checkpoint is of no use.
+        let _ = fs::remove_file(&ckpt_path);
+        return Err(nothing(format!(
+            "the run is complete ({} says \"complete\")",
+            json_path.display()
+        )));
+    }
+    let Some(saved) = checkpoint::read(dir)? else {
+        return Err(nothing(format!(
+            "{} not found (the run stopped before its first checkpoint, or was run with \
+             --checkpoint-every 0); run the scene again",
+            ckpt_path.display()
+        )));
+    };
+    let scene_path = dir.join("scene.toml");
+    let toml = match fs::read(&scene_path) {
+        Ok(t) => t,
+        Err(e) => {
+            return Err(CliError::Input(format!(
+                "cannot read {}: {e}; a run folder to resume holds the scene it ran",
+                scene_path.display()
+            )));
+        }
+    };
+    if checkpoint::digest(&toml) != saved.scene_digest {
+        return Err(CliError::Input(format!(
+            "{} does not match {}: the scene was changed after the checkpoint was written",
+            scene_path.display(),
+            ckpt_path.display()
+        )));
+    }
+    let scene = wetcloth_scene::load(&scene_path)?;
+    if let Some(given) = &args.scene {
+        let other = wetcloth_scene::load(given)?;
+        if checkpoint::digest(other.to_toml().as_bytes()) != saved.scene_digest {
+            return Err(CliError::Input(format!(
+                "{} is not the scene of the run in {} (its scene.toml differs); give no scene \
+                 to resume that run",
+                given.display(),
+                dir.display()
+            )));
+        }
+    }
+    let damaged =
+        |why: String| CliError::Input(format!("{} is damaged: {why}", ckpt_path.display()));
+    let last = last_frame(&scene.config);
+    if saved.frames > last {
+        return Err(damaged(format!(
+            "it says {} frames were written, the scene has {}",
+            saved.frames,
+            last + 1
+        )));
+    }
+    let (csv_len, pockets_len) = match saved.appended.as_slice() {
+        [(a, m), (b, p)] if a == "metrics.csv" && b == "pockets.csv" => (*m, *p),
+        _ => {
+            return Err(damaged(
+                "it does not list metrics.csv and pockets.csv".into(),
+            ));
+        }
+    };
+    for (name, len) in [("metrics.csv", csv_len), ("pockets.csv", pockets_len)] {
+        let path = dir.join(name);
+        let have = fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+        if have < len {
+            return Err(CliError::Input(format!(
+                "{} holds {have} bytes, fewer than the {len} of the {} frame(s) {} was taken \
+                 after; run the scene again",
+                path.display(),
+                saved.frames,
+                ckpt_path.display()
+            )));
+        }
+    }
+    let frames_dir = dir.join("frames");
+    if let Some(k) = (0..saved.frames).find(|&k| !frames_dir.join(frame_file_name(k)).is_file()) {
+        return Err(CliError::Input(format!(
+            "{} is missing: the frames before the checkpoint must be there to resume; run the \
+             scene again",
+            frames_dir.join(frame_file_name(k)).display()
+        )));
+    }
+    let note = CheckpointNote {
+        file: checkpoint::FILE_NAME,
+        frames: saved.frames,
+        step: saved.sim.steps(),
+        time: saved.sim.steps() as Real * scene.config.simulation.time_step,
+    };
+    let start = Start {
+        frames: saved.frames,
+        time: saved.frame_time,
+        every: saved.every,
+        resumed: Some((csv_len, pockets_len, note)),
+    };
+    let sim = Simulation::restore(scene.config.clone(), saved.sim).map_err(|e| {
+        CliError::Input(format!(
+            "{} does not fit {}: {e}",
+            ckpt_path.display(),
+            scene_path.display()
+        ))
+    })?;
+    if !quiet {
+        eprintln!(
+            "wetcloth: resuming {} at frame {} (t = {} s)",
+            scene.name,
+            start.frames,
+            human(sim.time())
+        );
+    }
+    bake(args, &scene, dir, sim, start, quiet)
+}
+
+/// Writes the frames of `scene` from `start` on into `dir`, with checkpoints.
+fn bake(
+    args: &RunArgs,
+    scene: &Scene,
+    dir: &Path,
+    mut sim: Simulation,
+    start: Start,
+    quiet: bool,
+) -> Result<(), CliError> {
+    let config = scene.config.clone();
+    let dir = dir.to_path_buf();
     let dt = config.simulation.time_step;
     let stable = config.stable_time_step();
-    if dt > stable && config.simulation.integrator == wetcloth::Integrator::Verlet {
+    if dt > stable {
         eprintln!(
             "wetcloth: warning: time_step = {dt} s is above this cloth's explicit stability \
              limit of {stable:.3e} s; the run will probably blow up"
@@ -143,42 +366,81 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
     };
     let frames_dir = dir.join("frames");
     fs::create_dir_all(&frames_dir).map_err(CliError::output(&frames_dir))?;
-    write_run_json(&json_path, &info(0, RunStatus::Running, 0.0))?;
+    // The last checkpoint written, for run.json.
+    let mut note = start.resumed.map(|(_, _, n)| n);
+    write_run_json(
+        &json_path,
+        &info(start.frames, RunStatus::Running, start.time),
+        note,
+    )?;
 
     // How far the run got: frames written and the time of the last.
-    let mut written = 0u64;
-    let mut time: Real = 0.0;
+    let (mut written, mut time) = (start.frames, start.time);
     let progress = progress_bar(0, quiet);
-    let start = Instant::now();
-    let body = (|| -> Result<Ending, CliError> {
-        prepare_dir(&frames_dir)?;
-        let scene_path = dir.join("scene.toml");
-        let toml = scene.to_toml();
-        write_atomically(&scene_path, |w| w.write_all(toml.as_bytes()))
-            .map_err(CliError::output(&scene_path))?;
-        let csv_path = dir.join("metrics.csv");
-        let csv_file = create_fresh(&csv_path).map_err(CliError::output(&csv_path))?;
-        let mut csv =
-            MetricsCsv::new(BufWriter::new(csv_file)).map_err(CliError::output(&csv_path))?;
-        let pockets_path = dir.join("pockets.csv");
-        let pockets_file = create_fresh(&pockets_path).map_err(CliError::output(&pockets_path))?;
-        let mut pockets_csv = PocketsCsv::new(BufWriter::new(pockets_file))
-            .map_err(CliError::output(&pockets_path))?;
+    let started = Instant::now();
+    let csv_path = dir.join("metrics.csv");
+    let pockets_path = dir.join("pockets.csv");
+    let mut body = || -> Result<Ending, CliError> {
+        prepare_dir(&frames_dir, start.frames)?;
+        if start.resumed.is_none() {
+            // An earlier run's checkpoint must not be taken for this run's.
+            let old = checkpoint::path(&dir);
+            match fs::remove_file(&old) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(CliError::output(&old)(e));
+                }
+                _ => {}
+            }
+            let scene_path = dir.join("scene.toml");
+            let toml = scene.to_toml();
+            write_atomically(&scene_path, |w| w.write_all(toml.as_bytes()))
+                .map_err(CliError::output(&scene_path))?;
+        }
+        // Fresh files, or (resumed) the files cut back to the checkpoint: rows a killed run
+        // wrote after it are written again; the header is already there and the writers'
+        // own is dropped.
+        let (csv_cut, pockets_cut) = match start.resumed {
+            Some((m, p, _)) => (Some(m), Some(p)),
+            None => (None, None),
+        };
+        let metrics_header = wetcloth_export::csv_header().len() as u64 + 1;
+        let mut csv = MetricsCsv::new(open_appended(&csv_path, csv_cut, metrics_header)?)
+            .map_err(CliError::output(&csv_path))?;
+        let pockets_header = wetcloth_export::POCKETS_CSV_HEADER.len() as u64 + 1;
+        let mut pockets_csv =
+            PocketsCsv::new(open_appended(&pockets_path, pockets_cut, pockets_header)?)
+                .map_err(CliError::output(&pockets_path))?;
+        let scene_digest = checkpoint::digest(
+            &fs::read(dir.join("scene.toml")).map_err(CliError::output(dir.join("scene.toml")))?,
+        );
 
         let last = last_frame(&config);
         let rate = config.simulation.frame_rate;
         progress.set_length(frame_step(last, rate, dt));
+        progress.set_position(sim.step_count());
         let grid = sim.grid().clone();
         let uvs = grid.uvs();
 
-        let mut write_frame = |sim: &Simulation, k: u64| -> Result<(), CliError> {
+        let write_frame = |sim: &Simulation,
+                           csv: &mut MetricsCsv<Appended>,
+                           pockets_csv: &mut PocketsCsv<Appended>,
+                           k: u64|
+         -> Result<(), CliError> {
+            let metrics = sim.metrics();
+            if let Some(what) = non_finite(sim.positions(), &metrics) {
+                return Err(CliError::Unwritable {
+                    frame: k,
+                    what,
+                    dir: dir.clone(),
+                });
+            }
             let path = frames_dir.join(frame_file_name(k));
             let normals = grid.vertex_normals(sim.positions());
             write_atomically(&path, |w| {
                 write_obj(w, &grid, sim.positions(), &normals, &uvs)
             })
             .map_err(CliError::output(&path))?;
-            csv.write_row(k, &sim.metrics())
+            csv.write_row(k, &metrics)
                 .map_err(CliError::output(&csv_path))?;
             pockets_csv
                 .write_frame(k, sim.time(), &sim.pocket_reports())
@@ -192,25 +454,41 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
                     e => CliError::Setup(e.to_string()),
                 })?;
             }
-            let status = if k == last {
-                RunStatus::Complete
-            } else {
-                RunStatus::Running
-            };
-            write_run_json(&json_path, &info(k + 1, status, sim.time()))
+            Ok(())
         };
+        let save =
+            |sim: &Simulation, frames: u64, frame_time: Real| -> Result<CheckpointNote, CliError> {
+                let saved = checkpoint::Saved {
+                    scene_digest,
+                    every: start.every,
+                    frames,
+                    frame_time,
+                    appended: vec![
+                        ("metrics.csv".into(), csv_len(&csv_path)?),
+                        ("pockets.csv".into(), csv_len(&pockets_path)?),
+                    ],
+                    sim: sim.checkpoint(),
+                };
+                checkpoint::write(&dir, &saved)?;
+                Ok(CheckpointNote {
+                    file: checkpoint::FILE_NAME,
+                    frames,
+                    step: sim.step_count(),
+                    time: sim.time(),
+                })
+            };
 
-        if interrupt.raised() {
-            return Ok(Ending::Interrupted);
-        }
-        write_frame(&sim, 0)?;
-        (written, time) = (1, sim.time());
         let mut chunk = 1u64;
-        for k in 1..=last {
+        for k in start.frames..=last {
             let target = frame_step(k, rate, dt);
-            while sim.step_count() < target {
+            loop {
                 if interrupt.raised() {
+                    // Where the run is now, mid-frame or not, so no step is lost.
+                    note = Some(save(&sim, written, time)?);
                     return Ok(Ending::Interrupted);
+                }
+                if sim.step_count() >= target {
+                    break;
                 }
                 // In chunks of about CHUNK_SECONDS, so the progress bar moves and Ctrl-C
                 // answers during long frames (the chunking does not change the results).
@@ -230,17 +508,37 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
                 progress.set_position(sim.step_count());
             }
             progress.set_message(format!("frame {k}/{last}"));
-            write_frame(&sim, k)?;
+            write_frame(&sim, &mut csv, &mut pockets_csv, k)?;
             (written, time) = (k + 1, sim.time());
+            if k == last {
+                // Complete: run.json says so first, then the checkpoint goes (a kill in
+                // between leaves a checkpoint that --resume removes).
+                write_run_json(&json_path, &info(written, RunStatus::Complete, time), None)?;
+                let old = checkpoint::path(&dir);
+                fs::remove_file(&old).or_else(|e| {
+                    if e.kind() == std::io::ErrorKind::NotFound {
+                        Ok(())
+                    } else {
+                        Err(CliError::output(&old)(e))
+                    }
+                })?;
+                note = None;
+            } else {
+                if start.every > 0 && k % start.every == 0 {
+                    note = Some(save(&sim, written, time)?);
+                }
+                write_run_json(&json_path, &info(written, RunStatus::Running, time), note)?;
+            }
         }
         Ok(Ending::Complete)
-    })();
+    };
+    let body = body();
 
     match body {
         Ok(Ending::Complete) => {
             progress.finish_and_clear();
             if !quiet {
-                print_summary(&scene, &sim, &dir, written, start.elapsed());
+                print_summary(scene, &sim, &dir, written, started.elapsed());
             }
             if let Some(list) = &args.export {
                 let formats: Vec<_> = list.0.iter().map(|f| (*f, None)).collect();
@@ -250,7 +548,11 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
         }
         Ok(Ending::Interrupted) => {
             progress.abandon();
-            write_run_json(&json_path, &info(written, RunStatus::Interrupted, time))?;
+            write_run_json(
+                &json_path,
+                &info(written, RunStatus::Interrupted, time),
+                note,
+            )?;
             Err(CliError::Interrupted {
                 frames: written,
                 time,
@@ -261,23 +563,102 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
             progress.abandon();
             // Say why in run.json; if even that cannot be written, the first error stands.
             let failed = info(written, RunStatus::Running, time).failed(e.to_string());
-            let _ = write_run_json(&json_path, &failed);
+            let _ = write_run_json(&json_path, &failed, note);
             Err(e)
         }
     }
 }
 
-/// Creates `frames_dir` (and its parent) and removes frame files an earlier run left there, so a
-/// shorter rerun leaves no stale frames. Other files are left alone.
-fn prepare_dir(frames_dir: &Path) -> Result<(), CliError> {
+/// What is not finite in a frame about to be written (positions, metrics), if anything: the
+/// writers' last line of defence, so that no NaN or infinity reaches a file of a run, whatever
+/// the core's checks missed.
+fn non_finite(x: &wetcloth::Soa, metrics: &wetcloth::FrameMetrics) -> Option<String> {
+    for (axis, v) in [("x", &x.x), ("y", &x.y), ("z", &x.z)] {
+        if let Some(k) = v.iter().position(|c| !c.is_finite()) {
+            return Some(format!("{axis} = {} at vertex {}", v[k], k + 1));
+        }
+    }
+    COLUMNS
+        .iter()
+        .zip(metrics.values())
+        .find(|(_, v)| !v.is_finite())
+        .map(|(name, v)| format!("{name} = {v} in metrics.csv"))
+}
+
+/// A file `metrics.csv` is appended to: drops the first `skip` bytes written (the header a
+/// resumed run's `MetricsCsv` writes again).
+struct Appended {
+    file: fs::File,
+    skip: u64,
+}
+
+impl Appended {
+    /// Appends to `file` (positioned at its end), dropping the first `skip` bytes written.
+    fn new(file: fs::File, skip: u64) -> Self {
+        Self { file, skip }
+    }
+}
+
+impl Write for Appended {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let dropped = self.skip.min(buf.len() as u64) as usize;
+        if dropped > 0 {
+            self.skip -= dropped as u64;
+            return Ok(dropped);
+        }
+        self.file.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+/// `path` to append rows to: created fresh (`cut` None), or cut back to `cut` bytes with its
+/// header of `header` bytes already there, which the writer's own header then skips.
+fn open_appended(path: &Path, cut: Option<u64>, header: u64) -> Result<Appended, CliError> {
+    match cut {
+        None => {
+            let file = create_fresh(path).map_err(CliError::output(path))?;
+            Ok(Appended::new(file, 0))
+        }
+        Some(len) => {
+            let mut file = fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(CliError::output(path))?;
+            file.set_len(len).map_err(CliError::output(path))?;
+            std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(len))
+                .map_err(CliError::output(path))?;
+            Ok(Appended::new(file, header))
+        }
+    }
+}
+
+/// The length of a CSV file (every row is flushed as it is written), bytes.
+fn csv_len(path: &Path) -> Result<u64, CliError> {
+    fs::metadata(path)
+        .map(|m| m.len())
+        .map_err(CliError::output(path))
+}
+
+/// Creates `frames_dir` (and its parent) and removes frame files an earlier run left there from
+/// frame `from` on (every one for a new run, those after the checkpoint for a resumed one), and
+/// every `.part` file, so a shorter rerun leaves no stale frames. Other files are left alone.
+fn prepare_dir(frames_dir: &Path, from: u64) -> Result<(), CliError> {
     fs::create_dir_all(frames_dir).map_err(CliError::output(frames_dir))?;
     let entries = fs::read_dir(frames_dir).map_err(CliError::output(frames_dir))?;
     for entry in entries {
         let entry = entry.map_err(CliError::output(frames_dir))?;
         let name = entry.file_name();
         let name = name.to_string_lossy();
-        let stale =
-            is_frame_file_name(&name) || name.strip_suffix(".part").is_some_and(is_frame_file_name);
+        let index = |n: &str| {
+            n.strip_prefix("frame_")
+                .and_then(|n| n.strip_suffix(".obj"))
+                .and_then(|n| n.parse::<u64>().ok())
+        };
+        let stale = (is_frame_file_name(&name) && index(&name).is_none_or(|k| k >= from))
+            || name.strip_suffix(".part").is_some_and(is_frame_file_name);
         // Files and links (a link itself, never what it points to); not directories.
         if stale && entry.file_type().is_ok_and(|t| !t.is_dir()) {
             fs::remove_file(entry.path()).map_err(CliError::output(entry.path()))?;
@@ -286,9 +667,20 @@ fn prepare_dir(frames_dir: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Writes `run.json` (always complete, see `write_run_json_file`).
-fn write_run_json(path: &Path, info: &RunInfo) -> Result<(), CliError> {
-    wetcloth_export::write_run_json_file(path, info).map_err(CliError::output(path))
+/// Writes `run.json` (always whole: through a `.part` file and a rename), with the last
+/// checkpoint while the run is not complete; pretty-printed JSON with a final newline, as
+/// `wetcloth_export::write_run_json` writes it.
+fn write_run_json(
+    path: &Path,
+    info: &RunInfo,
+    checkpoint: Option<CheckpointNote>,
+) -> Result<(), CliError> {
+    let json = RunJson { info, checkpoint };
+    write_atomically(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, &json)?;
+        writeln!(w)
+    })
+    .map_err(CliError::output(path))
 }
 
 /// A progress bar over the steps on stderr, or a hidden one when stderr is not a terminal or the
@@ -371,6 +763,40 @@ mod tests {
             assert_eq!(frame_step(k, 60.0, dt), 200 * k);
             assert_eq!(frame_step(k, 20.0, dt), 600 * k);
         }
+    }
+
+    /// The writers refuse what the core's checks might let through: a non-finite position or
+    /// metric is never written (`wetcloth run` then exits 1 with run.json saying "failed").
+    #[test]
+    fn the_writers_refuse_non_finite_frames() {
+        let sim = Simulation::new({
+            let mut c = SimConfig::thesis_demo();
+            c.cloth.resolution = [5, 5];
+            c.grabs.clear();
+            c
+        })
+        .unwrap();
+        let (x, m) = (sim.positions().clone(), sim.metrics());
+        assert_eq!(non_finite(&x, &m), None);
+        let mut bad = x.clone();
+        bad.y[7] = Real::NAN;
+        assert_eq!(non_finite(&bad, &m).as_deref(), Some("y = NaN at vertex 8"));
+        let mut bad = x.clone();
+        bad.z[0] = Real::INFINITY;
+        assert!(non_finite(&bad, &m).unwrap().starts_with("z = inf"));
+        let mut worse = m;
+        worse.kinetic_energy = Real::INFINITY;
+        assert_eq!(
+            non_finite(&x, &worse).as_deref(),
+            Some("kinetic_energy = inf in metrics.csv")
+        );
+        let e = CliError::Unwritable {
+            frame: 4,
+            what: "x = NaN at vertex 1".into(),
+            dir: "out/d".into(),
+        };
+        assert_eq!(e.exit_code(), 1);
+        assert!(e.to_string().contains("frame 4 would hold x = NaN"));
     }
 
     #[test]

@@ -88,4 +88,16 @@ pub enum StepError {
         /// The most the hands and the air allow, J.
         allowance: Real,
     },
+    /// A particle went farther from where the cloth started than anything can carry it.
+    #[error(
+        "the simulation went unphysical at t = {time:.6} s: a particle is {distance:.3e} m from          where the cloth started, beyond the {reach:.3e} m that free fall, the hands and the          energy they and the air gave can explain; try a smaller time_step"
+    )]
+    OutOfReach {
+        /// Simulated time, s.
+        time: Real,
+        /// The farthest particle's distance from the cloth's centre at the start, m.
+        distance: Real,
+        /// The farthest any particle can be (see `checks::EnergyAudit::reach`), m.
+        reach: Real,
+    },
 }

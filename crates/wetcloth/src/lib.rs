@@ -66,6 +66,7 @@
 
 pub mod air;
 pub mod bench;
+pub mod checkpoint;
 pub mod checks;
 pub mod collide;
 pub mod constraints;
@@ -82,6 +83,7 @@ pub mod params;
 pub mod sim;
 pub mod state;
 
+pub use checkpoint::{CHECKPOINT_VERSION, Checkpoint, RestoreError};
 pub use collide::{Collider, Shape, Surface, SurfaceMesh};
 pub use control::{Control, Grab, GrabKey, GrabMotion, GrabSpec};
 pub use error::{ConfigError, StepError};

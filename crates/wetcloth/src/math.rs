@@ -13,6 +13,7 @@ pub type Vec3 = glam::DVec3;
 /// Particle vectors stored as three arrays (structure of arrays), so the per-row loops of the
 /// grid stencil read contiguous lanes and vectorise.
 #[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Soa {
     /// x components.
     pub x: Vec<Real>,

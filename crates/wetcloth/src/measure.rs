@@ -18,6 +18,7 @@ pub(crate) const LANES: usize = 8;
 
 /// What [`cells`] measures of the cells between one row and the next.
 #[derive(Clone, Copy, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub(crate) struct CellMeasures {
     /// Eq. 3.10 over the cells, m^3 (0 without a sticking plane).
     pub volume: Real,
@@ -146,6 +147,7 @@ pub(crate) fn row_cells(
 /// The measures of every row of cells of a state: row `j` holds the cells between rows `j`
 /// and `j + 1`; and, when kept, each cell's own gap volume.
 #[derive(Clone, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub(crate) struct Measures {
     pub rows: Vec<CellMeasures>,
     /// Gap volume of each cell (eq. 3.10 over its two triangles), m^3, cell `(i, j)` at

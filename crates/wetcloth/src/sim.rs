@@ -1,6 +1,7 @@
 //! The simulation and its step (thesis 3.2, fig. 3.4).
 
 use crate::air::AirModel;
+use crate::checkpoint::{Checkpoint, RestoreError};
 use crate::checks::{self, EnergyAudit};
 use crate::collide::contact;
 use crate::collide::self_collision::SelfCollision;
@@ -471,8 +472,8 @@ impl Simulation {
         }
         if self.state.steps.is_multiple_of(checks::AUDIT_INTERVAL) {
             let dt = self.time_step();
-            let work = self.external_work();
-            self.audit.check(&self.model, &self.state, work, dt, time)?;
+            self.audit
+                .check(&self.model, &self.state, &self.control, dt, time)?;
         }
         Ok(())
     }
@@ -565,6 +566,41 @@ impl Simulation {
             self.config.simulation.time_step,
         );
         Ok(())
+    }
+
+    /// Everything a step carries to the next, to continue later with
+    /// [`Simulation::restore`] (see [`crate::checkpoint`]).
+    pub fn checkpoint(&self) -> Checkpoint {
+        Checkpoint {
+            version: crate::checkpoint::CHECKPOINT_VERSION,
+            state: self.state.clone(),
+            control: self.control.clone(),
+            air: self.air.clone(),
+            self_collision: self.self_collision.clone(),
+            measures: self.measures.clone(),
+            audit: self.audit.clone(),
+        }
+    }
+
+    /// The simulation of `config` continued from `checkpoint`: stepping it gives bit for bit
+    /// what the simulation the checkpoint was taken from would have given. Refused when the
+    /// checkpoint does not fit the configuration (another cloth, air model, integrator or
+    /// format version).
+    pub fn restore(config: SimConfig, checkpoint: Checkpoint) -> Result<Self, RestoreError> {
+        let mut sim = Self::new(config)?;
+        checkpoint.check_fits(&sim)?;
+        let Checkpoint {
+            version: _,
+            state,
+            control,
+            air,
+            self_collision,
+            measures,
+            audit,
+        } = checkpoint;
+        (sim.state, sim.control, sim.air) = (state, control, air);
+        (sim.self_collision, sim.measures, sim.audit) = (self_collision, measures, audit);
+        Ok(sim)
     }
 
     /// Takes `steps` steps (see [`Simulation::step`]), on the thread pool when the cloth is big

@@ -9,6 +9,7 @@ use crate::math::{Real, Soa, Vec3};
 
 /// How the state carries the particles' motion.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Motion {
     /// Positions one step earlier, m (position Verlet): the velocity is `(x - prev) / dt`.
     Previous(Soa),
@@ -18,6 +19,7 @@ pub enum Motion {
 
 /// Positions, motion, contact flags and the step count.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct State {
     /// Particle positions, m.
     pub x: Soa,

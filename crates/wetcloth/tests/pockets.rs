@@ -401,5 +401,8 @@ fn pockets_with_the_implicit_integrator() {
     };
     let (corner, centre) = (lift([0, 0]), lift([10, 10]));
     eprintln!("implicit: corner {corner} N, centre {centre} N");
-    assert!(centre >= 10.0 * corner, "centre {centre} N, corner {corner} N");
+    assert!(
+        centre >= 10.0 * corner,
+        "centre {centre} N, corner {corner} N"
+    );
 }

@@ -13,6 +13,7 @@ use crate::state::State;
 
 /// The single bubble.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Bubble {
     /// Trapped air now, m^3 at atmospheric pressure: the scene's `trapped_air` plus what has
     /// leaked in since.
@@ -164,6 +165,7 @@ impl Bubble {
 /// springs, biased the pressure by the springs' share, 10 % on a peeled corner, and that error,
 /// fed back one step late, shook a small leaking bubble until it blew up at small time steps.)
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub(crate) struct EndOfStep {
     /// `K = P_a v0`, J (Pa m^3).
     pub trapped: Real,

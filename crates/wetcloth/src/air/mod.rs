@@ -70,6 +70,7 @@ pub struct PocketReport {
 
 /// The air model of a simulation.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum AirModel {
     /// The thesis' single bubble (3.4).
     Thesis(Bubble),

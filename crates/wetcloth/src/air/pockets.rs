@@ -61,6 +61,7 @@ pub const NONE: u32 = u32::MAX;
 
 /// A sealed pocket of air.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Pocket {
     /// Its id, kept while the pocket persists (ids are never reused).
     pub id: u32,
@@ -92,6 +93,7 @@ impl Pocket {
 
 /// The pockets model's state.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Pockets {
     /// The sealed pockets of the current state.
     pub pockets: Vec<Pocket>,
@@ -133,6 +135,7 @@ pub struct Pockets {
 
 /// An end-of-step pressure solve to do this step.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 struct Pending {
     dt: Real,
     first_step: bool,
@@ -142,6 +145,7 @@ struct Pending {
 
 /// Scratch buffers, kept so that a step allocates nothing once warm.
 #[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 struct Scratch {
     /// Union-find parent of each cell.
     parent: Vec<u32>,

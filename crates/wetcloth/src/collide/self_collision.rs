@@ -21,6 +21,7 @@ const SKIN_FRACTION: Real = 1.0;
 
 /// Self-collision state: the neighbour lists and their reference positions.
 #[derive(Clone, Debug, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SelfCollision {
     diameter: Real,
     skin: Real,
@@ -28,9 +29,12 @@ pub struct SelfCollision {
     /// CSR neighbour lists: neighbours of `i` are `list[start[i]..start[i + 1]]`.
     start: Vec<u32>,
     list: Vec<u32>,
-    /// Scratch for the broad phase.
+    /// Scratch for the broad phase (rebuilt with the lists, not saved in checkpoints).
+    #[cfg_attr(feature = "serde", serde(skip))]
     cells: Vec<[i64; 3]>,
+    #[cfg_attr(feature = "serde", serde(skip))]
     bucket_start: Vec<u32>,
+    #[cfg_attr(feature = "serde", serde(skip))]
     bucket_items: Vec<u32>,
     corrections: Soa,
     /// How many times the neighbour lists were built.
@@ -54,6 +58,25 @@ impl SelfCollision {
             corrections: Soa::zeros(n),
             ..Default::default()
         }
+    }
+
+    /// Whether the lists fit a cloth of `n` particles (a stored copy may be damaged): empty or
+    /// one row per particle, every neighbour in range.
+    pub(crate) fn fits(&self, n: usize) -> bool {
+        let lists = (self.start.is_empty() && self.list.is_empty())
+            || (self.start.len() == n + 1
+                && self.start.windows(2).all(|w| w[0] <= w[1])
+                && self.start[n] as usize == self.list.len()
+                && self.list.iter().all(|&j| (j as usize) < n));
+        let reference = self.reference.is_empty()
+            || (self.reference.x.len() == n
+                && self.reference.y.len() == n
+                && self.reference.z.len() == n);
+        lists
+            && reference
+            && self.corrections.len() == n
+            && self.corrections.y.len() == n
+            && self.corrections.z.len() == n
     }
 
     /// Heap bytes held (lists, hash grid, scratch).

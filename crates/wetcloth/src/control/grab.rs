@@ -11,6 +11,7 @@ use crate::math::{Real, Vec3};
 
 /// One keyframe of a grab path.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct GrabKey {
     /// Time of the key, s (>= 0, strictly increasing along a path).
     pub time: Real,
@@ -20,6 +21,7 @@ pub struct GrabKey {
 
 /// A keyframed grab as a scene file gives it (`[[grab]]`).
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct GrabSpec {
     /// Grid index (column along x, row along z), 0-based.
     pub particle: [usize; 2],
@@ -106,6 +108,7 @@ impl GrabSpec {
 
 /// How a live grab moves its particle.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum GrabMotion {
     /// Follows a keyframed path relative to where the particle was at the first key.
     Path(GrabSpec),
@@ -121,6 +124,7 @@ pub enum GrabMotion {
 
 /// A grab acting on the cloth.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Grab {
     /// Particle index (`row * columns + column`).
     pub particle: usize,

@@ -9,6 +9,7 @@ use crate::math::{Real, Soa, Vec3};
 
 /// What the user does to the cloth.
 #[derive(Clone, Debug)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Control {
     /// The grabs (the hand, F_u).
     pub grabs: Vec<Grab>,
