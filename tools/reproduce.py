@@ -485,6 +485,13 @@ def main():
       f"spent most of its time in Bullet's collision detection and in drawing, wetcloth runs "
       f"the step as vectorised row loops on the grid (see `docs/performance.md`).")
     w("")
+    # Sections measured by their own tools (the implicit integrator's, by
+    # tools/implicit-scenes.sh and its tests) are kept from the previous document.
+    KEPT = "## The implicit integrator"
+    if DOC.exists() and KEPT in DOC.read_text():
+        kept = DOC.read_text()
+        w(kept[kept.index(KEPT):].rstrip("\n"))
+        w("")
     DOC.write_text("\n".join(L))
     print(f"wrote {DOC}")
 

@@ -23,10 +23,10 @@ const MAX_SMALL_FILE_BYTES: u64 = 256 << 20;
 /// Share of the pockets' pressure differences (over the rendered frames) the colour map spans
 /// by default: the rest saturate. A pocket seeded flat starts at an enormous pressure for one
 /// frame, which would wash out every other frame's colours if the range were the largest.
-pub const RANGE_QUANTILE: f64 = 0.9;
+const RANGE_QUANTILE: f64 = 0.9;
 
 /// Smallest pressure range of the colour map, Pa.
-pub const MIN_RANGE: f64 = 1.0;
+const MIN_RANGE: f64 = 1.0;
 
 /// The pockets' pressures of a run, and where its label files are.
 #[derive(Clone, Debug)]
@@ -59,8 +59,8 @@ impl PocketPressures {
         })
     }
 
-    /// The colour map's half range, Pa: `fixed`, or the [`RANGE_QUANTILE`] quantile of the
-    /// pockets' `|P - P_a|` over `frames`, at least [`MIN_RANGE`].
+    /// The colour map's half range, Pa: `fixed`, or the `RANGE_QUANTILE` (0.9) quantile of the
+    /// pockets' `|P - P_a|` over `frames`, at least `MIN_RANGE` (1 Pa).
     pub fn range(&self, frames: &[u64], fixed: Option<f64>) -> f64 {
         if let Some(r) = fixed {
             return r;
