@@ -94,6 +94,18 @@ impl RawRunInfo {
                     plane.normal = n.normalize();
                 }
             }
+            // A plane's point is finite for the core; a picture needs it within reach too.
+            if let Shape::Plane(plane) = &c.shape {
+                let p = plane.point;
+                let m = wetcloth::collide::MAX_POSITION;
+                if p.abs().max_element() > m {
+                    return Err(format!(
+                        "colliders[{i}].point = [{}, {}, {}] is out of range: allowed each \
+                         coordinate in [-{m:e}, {m:e}] m",
+                        p.x, p.y, p.z
+                    ));
+                }
+            }
             c.validate(i).map_err(|e| {
                 let key = e.key().replace("collider[", "colliders[");
                 match e {
