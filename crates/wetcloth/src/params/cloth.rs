@@ -56,12 +56,12 @@ pub struct ClothParams {
     pub dry_friction_factor: Real,
     /// With the pockets model: the water film's suction on a sealed particle of a soaked
     /// cloth, Pa (a particle of wetness `w` is pulled onto the surface by `wet_adhesion * w * S`
-    /// newtons while it seals, that is within `[air] seal_distance` of touching): the capillary
-    /// pressure `2 gamma / d` of the water film between cloth and surface, about 1000 Pa for
-    /// water (`gamma` = 0.072 N/m) in a film `d` = 0.15 mm thick. It is what keeps a pocket's
-    /// rim sealed against the air pushing out (weaker, a bubble's stretched cloth peels its rim
-    /// and the bubble spreads); peeling costs `wet_adhesion * seal_distance` joules per m^2.
-    /// Default 1000; range [0, 1e6].
+    /// newtons while it seals, that is within `[air] seal_distance` of touching). Peeling a
+    /// sealed particle off costs `wet_adhesion * seal_distance` joules per m^2, the water
+    /// film's work of adhesion `2 gamma` = 0.144 J/m^2 (`gamma` = 0.072 N/m) over the default
+    /// 0.5 mm: about 300 Pa. It keeps a pocket's rim sealed against the air pushing out; a
+    /// larger value (1000 Pa, the capillary pressure `2 gamma / d` of a 0.15 mm film) keeps
+    /// bubbles under a soft cloth from peeling their own rims. Default 300; range [0, 1e6].
     pub wet_adhesion: Real,
 }
 
@@ -118,7 +118,7 @@ impl Default for ClothParams {
             paint: Vec::new(),
             water_mass: 0.0,
             dry_friction_factor: 1.0,
-            wet_adhesion: 1000.0,
+            wet_adhesion: 300.0,
         }
     }
 }
