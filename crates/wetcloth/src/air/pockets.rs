@@ -162,6 +162,17 @@ struct Scratch {
     /// The coasting positions' gaps beyond the contact distance, m, and cell volumes, m^3.
     coast_gap: Vec<Real>,
     coast_cells: Vec<Real>,
+    /// Per pocket: the pressure difference of the step (Pa), the coasting volume of its cells
+    /// (m^3), and its free particles; per particle, whether it stays unsealed (inside a pocket
+    /// that pushes out). Rebuilt each step, so not part of a checkpoint.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pressures: Vec<Real>,
+    #[cfg_attr(feature = "serde", serde(skip))]
+    base: Vec<Real>,
+    #[cfg_attr(feature = "serde", serde(skip))]
+    members: Vec<Vec<usize>>,
+    #[cfg_attr(feature = "serde", serde(skip))]
+    keep_open: Vec<bool>,
 }
 
 impl Pockets {
@@ -283,18 +294,11 @@ impl Pockets {
                 return Timing::Now;
             }
             let pa = air.atmospheric_pressure;
-            let pressures: Vec<Real> = self
-                .pockets
-                .iter()
-                .map(|p| {
-                    if control.air_enabled {
-                        p.pressure - pa
-                    } else {
-                        0.0
-                    }
-                })
-                .collect();
+            let mut pressures = std::mem::take(&mut self.scratch.pressures);
+            pressures.clear();
+            pressures.extend(self.pockets.iter().map(|p| p.pressure - pa));
             self.spread(model, &pressures);
+            self.scratch.pressures = pressures;
             Timing::Now
         }
     }
@@ -322,7 +326,6 @@ impl Pockets {
             return;
         };
         // The coasting positions' gaps (m, beyond the contact distance) and cell volumes.
-        let m = model.grid.nx - 1;
         let mut coast_gap = std::mem::take(&mut self.scratch.coast_gap);
         let mut coast_cells = std::mem::take(&mut self.scratch.coast_cells);
         coast_gap.clear();
@@ -359,10 +362,12 @@ impl Pockets {
         let h_of = |i: usize| pending.dt * pending.dt / model.mass(i) * first;
         // Each pocket's coasting volume: its cells', plus the depth of its particles coasting
         // into the surface (the contact pushes them back out).
-        let mut base = vec![0.0; self.pockets.len()];
+        let mut base = std::mem::take(&mut self.scratch.base);
+        base.clear();
+        base.resize(self.pockets.len(), 0.0);
         for (c, &q) in self.cell_pocket.iter().enumerate() {
             if q != NONE {
-                base[q as usize] += coast_cells[(c / m) * m + c % m];
+                base[q as usize] += coast_cells[c];
             }
         }
         for (i, &q) in self.particle_pocket.iter().enumerate() {
@@ -372,13 +377,16 @@ impl Pockets {
             }
         }
         // Each pocket's free particles, in index order.
-        let mut members: Vec<Vec<usize>> = vec![Vec::new(); self.pockets.len()];
+        let mut members = std::mem::take(&mut self.scratch.members);
+        members.resize_with(self.pockets.len(), Vec::new);
+        members.iter_mut().for_each(Vec::clear);
         for (i, &q) in self.particle_pocket.iter().enumerate() {
             if q != NONE && !held[i] {
                 members[q as usize].push(i);
             }
         }
-        let mut pressures = Vec::with_capacity(self.pockets.len());
+        let mut pressures = std::mem::take(&mut self.scratch.pressures);
+        pressures.clear();
         for (q, pocket) in self.pockets.iter().enumerate() {
             let k = pa * pocket.amount;
             let volume = |p: Real| {
@@ -405,7 +413,10 @@ impl Pockets {
         }
         self.scratch.coast_gap = coast_gap;
         self.scratch.coast_cells = coast_cells;
+        self.scratch.base = base;
+        self.scratch.members = members;
         self.spread(model, &pressures);
+        self.scratch.pressures = pressures;
     }
 
     /// Sets each particle's pressure difference from the pockets' `pressures` (Pa, one per
@@ -479,15 +490,15 @@ impl Pockets {
         // Seal again; a particle inside a pocket that pushes out stays unsealed unless it is
         // pressed onto the surface (within its radius).
         std::mem::swap(&mut self.sealed, &mut self.previous_sealed);
-        if self.pockets.iter().any(|p| p.pressure > pa) {
-            let pushing: Vec<bool> = self.pockets.iter().map(|p| p.pressure > pa).collect();
-            let old_pocket = self.particle_pocket.clone();
-            self.seal(air, model, |k, touching| {
-                touching || old_pocket[k] == NONE || !pushing[old_pocket[k] as usize]
-            });
-        } else {
-            self.seal(air, model, |_, _| true);
-        }
+        let mut keep_open = std::mem::take(&mut self.scratch.keep_open);
+        keep_open.clear();
+        keep_open.extend(
+            self.particle_pocket
+                .iter()
+                .map(|&q| q != NONE && self.pockets[q as usize].pressure > pa),
+        );
+        self.seal(air, model, |k, touching| touching || !keep_open[k]);
+        self.scratch.keep_open = keep_open;
         if self.sealed == self.previous_sealed {
             // The same sealed particles: the same regions and pockets, with their air (their
             // volumes are measured above); only the rims may have moved.
