@@ -115,14 +115,136 @@ fn collider() -> impl Strategy<Value = Shape> {
                     f(x), f(y - r), f(z), f(r), f(mu)
                 )
             }),
-        (-2.0f64..2.0, -2.0f64..-0.05, -2.0f64..2.0, 0.01f64..1.0, 0.01f64..1.0, friction)
+        (-2.0f64..2.0, -2.0f64..-0.05, -2.0f64..2.0, 0.01f64..1.0, 0.01f64..1.0, friction.clone())
             .prop_map(|(x, y, z, hx, hy, mu)| Shape {
                 text: format!(
                     "[[collider]]\nshape = \"box\"\ncenter = [{}, {}, {}]\nhalf_extents = [{}, {}, {}]\nfriction = {}\n",
                     f(x), f(y - hy), f(z), f(hx), f(hy), f(hx), f(mu)
                 )
             }),
+        // The octahedron of `mesh.obj` (written beside the scene: radius 1 before `scale`).
+        (-2.0f64..2.0, -2.0f64..-0.05, -2.0f64..2.0, log_range(1e-3, 10.0), (-180.0f64..180.0, -180.0f64..180.0), friction)
+            .prop_map(|(x, y, z, r, (rx, ry), mu)| Shape {
+                text: format!(
+                    "[[collider]]\nshape = \"mesh\"\nfile = \"mesh.obj\"\nposition = [{}, {}, {}]\nrotation = [{}, {}, 0]\nscale = {}\nfriction = {}\n",
+                    f(x), f(y - r), f(z), f(rx), f(ry), f(r), f(mu)
+                )
+            }),
     ]
+    .prop_flat_map(|shape| (Just(shape), any::<bool>(), prop::option::weighted(0.2, motion())))
+    .prop_map(|(shape, sticky, motion)| Shape {
+        text: format!("{}sticky = {sticky}\n{}", shape.text, motion.unwrap_or_default()),
+    })
+}
+
+/// A collider's motion: up to three keys within 30 ms, moving up to 20 cm and turning.
+fn motion() -> impl Strategy<Value = String> {
+    prop::collection::vec(
+        (
+            0.0f64..0.01,
+            prop::collection::vec(-0.2f64..0.2, 3),
+            prop::collection::vec(-90.0f64..90.0, 3),
+        ),
+        1..4,
+    )
+    .prop_map(|keys| {
+        let mut t = 0.0;
+        let keys: Vec<String> = keys
+            .iter()
+            .map(|(dt, o, r)| {
+                t += dt;
+                format!(
+                    "{{ time = {}, offset = [{}, {}, {}], rotation = [{}, {}, {}] }}",
+                    f(t),
+                    f(o[0]),
+                    f(o[1]),
+                    f(o[2]),
+                    f(r[0]),
+                    f(r[1]),
+                    f(r[2])
+                )
+            })
+            .collect();
+        format!("keys = [{}]\n", keys.join(", "))
+    })
+}
+
+/// Wetness, the pockets air model and its keys, painted regions and seeded pockets: the text
+/// to add to `[cloth]` and `[air]`, and the tables that follow each.
+#[derive(Clone, Debug)]
+struct Wet {
+    cloth: String,
+    paint: String,
+    air: String,
+    pockets: String,
+}
+
+fn wet() -> impl Strategy<Value = Wet> {
+    let cloth = (
+        0.0f64..=1.0,
+        log_range(0.0, 100.0),
+        log_range(0.0, 10.0),
+        log_range(0.0, 1e6),
+    );
+    let paint = prop::collection::vec(
+        (
+            (-0.6f64..0.6, -0.6f64..0.6),
+            0.0f64..=1.0,
+            any::<bool>(),
+            log_range(1e-3, 1.0),
+        ),
+        0..3,
+    );
+    let air = (
+        prop::bool::weighted(0.6),
+        log_range(0.0, 0.1),
+        maybe_out((0.01f64..=1.0).boxed()),
+        (log_range(0.0, 1.0), log_range(0.0, 1.0)),
+    );
+    let pockets = prop::collection::vec(
+        (
+            (-0.6f64..0.6, -0.6f64..0.6),
+            log_range(1e-3, 1.0),
+            log_range(0.0, 1e-2),
+        ),
+        0..3,
+    );
+    (prop::bool::weighted(0.5), cloth, paint, air, pockets).prop_map(
+        |(on, (wetness, water, dry, adhesion), paint, (pockets_model, seal, seal_wet, (perm, dry_perm)), seeds)| {
+            if !on {
+                return Wet { cloth: String::new(), paint: String::new(), air: String::new(), pockets: String::new() };
+            }
+            let cloth = format!(
+                "wetness = {}\nwater_mass = {}\ndry_friction_factor = {}\nwet_adhesion = {}\n",
+                f(wetness), f(water), f(dry), f(adhesion)
+            );
+            let paint = paint
+                .iter()
+                .map(|((x, z), w, disc, r)| {
+                    let shape = if *disc {
+                        format!("radius = {}", f(*r))
+                    } else {
+                        format!("half_size = [{}, {}]", f(*r), f(r * 0.5))
+                    };
+                    format!("[[cloth.paint]]\ncenter = [{}, {}]\n{shape}\nwetness = {}\n", f(*x), f(*z), f(*w))
+                })
+                .collect();
+            if !pockets_model {
+                return Wet { cloth, paint, air: String::new(), pockets: String::new() };
+            }
+            let air = format!(
+                "model = \"pockets\"\nseal_distance = {}\nseal_wetness = {}\npermeability = {}\ndry_permeability = {}\n",
+                f(seal), toml(seal_wet), f(perm), f(dry_perm)
+            );
+            let pockets = seeds
+                .iter()
+                .map(|((x, z), r, amount)| {
+                    format!("[[air.pocket]]\ncenter = [{}, {}]\nradius = {}\namount = {}\n", f(*x), f(*z), f(*r), f(*amount))
+                })
+                .collect();
+            Wet { cloth, paint, air, pockets }
+        },
+    )
 }
 
 /// A short scene anywhere in the documented ranges.
@@ -161,19 +283,22 @@ fn scene() -> impl Strategy<Value = String> {
         ),
         0..3,
     );
-    (sim, cloth, air, prop::collection::vec(collider(), 0..3), grabs, prop::bool::weighted(0.9))
-        .prop_map(|(sim, cloth, air, colliders, grabs, ground)| {
+    let integrator =
+        prop_oneof![3 => Just(None), 1 => log_range(1.0 / 2400.0, 0.05).prop_map(Some)];
+    (sim, cloth, air, prop::collection::vec(collider(), 0..3), grabs, prop::bool::weighted(0.9), (wet(), integrator))
+        .prop_map(|(sim, cloth, air, colliders, grabs, ground, (wet, implicit))| {
             let (duration, dt, rate, gravity) = sim;
-            // At most about 3000 steps.
-            let dt = dt.max(duration / 3000.0);
+            // At most about 3000 steps; the implicit integrator at its large steps.
+            let dt = implicit.unwrap_or(dt).max(duration / 3000.0);
             let (res, size, mass, (ks, kh), damping, (thick, margin), sc, (limit, iters), lift) = cloth;
             let radius = 0.5 * (thick + margin);
             let mut s = format!(
-                "name = \"fuzz\"\n[simulation]\nduration = {}\ntime_step = {}\nframe_rate = {}\ngravity = [{}]\n",
+                "name = \"fuzz\"\n[simulation]\nduration = {}\ntime_step = {}\nframe_rate = {}\ngravity = [{}]\nintegrator = \"{}\"\n",
                 f(duration),
                 f(dt),
                 f(rate),
-                gravity.iter().map(|g| toml(*g)).collect::<Vec<_>>().join(", ")
+                gravity.iter().map(|g| toml(*g)).collect::<Vec<_>>().join(", "),
+                if implicit.is_some() { "implicit" } else { "verlet" }
             );
             s += &format!(
                 "[cloth]\nresolution = [{}, {}]\nsize = [{}, {}]\nposition = [0, {}, 0]\nmass = {}\n\
@@ -183,12 +308,16 @@ fn scene() -> impl Strategy<Value = String> {
                 res.0, res.1, f(size.0), f(size.1), f(radius + 1e-6 + lift), toml(mass), toml(ks), f(kh),
                 toml(damping), f(thick), f(margin), f(limit)
             );
+            s += &wet.cloth;
+            s += &wet.paint;
             let (enabled, pa, v0, leak, implicit) = air;
             s += &format!(
                 "[air]\nenabled = {enabled}\natmospheric_pressure = {}\ntrapped_air = {}\n\
                  leak_conductance = {}\npressure_solve = \"{}\"\n",
                 f(pa), f(v0), f(leak), if implicit { "implicit" } else { "explicit" }
             );
+            s += &wet.air;
+            s += &wet.pockets;
             if ground {
                 s += "[[collider]]\nshape = \"plane\"\n";
             }
@@ -332,6 +461,7 @@ fn run_case(dir: &Path, scene: &str, b: &Before) -> Result<(), TestCaseError> {
     prop_assert!(!err.contains("panicked"), "{}", err);
     let code = status.code();
     prop_assert!(matches!(code, Some(0..=2)), "exit {:?}: {}", status, err);
+    tally(scene, code.unwrap_or(3) as usize, &err);
     prop_assert_eq!(
         fs::read_to_string(&sentinel).unwrap(),
         "outside",
@@ -385,14 +515,80 @@ fn run_case(dir: &Path, scene: &str, b: &Before) -> Result<(), TestCaseError> {
     Ok(())
 }
 
+/// Features of the scenes, counted by exit status to show what the campaign reaches.
+const FEATURES: [&str; 6] = [
+    "integrator = \"implicit\"",
+    "\"pockets\"",
+    "[[air.pocket]]",
+    "[[cloth.paint]]",
+    "\"mesh\"",
+    "], rotation = [",
+];
+
+/// Runs by exit status (0, 1, 2): all, then with each feature.
+type ByExit = [[u64; 7]; 3];
+/// The first words of exit-1 errors (digits dropped) and how often each came.
+type Errors = Vec<(String, u64)>;
+static TALLY: std::sync::Mutex<(ByExit, Errors)> = std::sync::Mutex::new(([[0; 7]; 3], Vec::new()));
+
+fn tally(scene: &str, code: usize, err: &str) {
+    let mut t = TALLY.lock().unwrap_or_else(|e| e.into_inner());
+    if code > 2 {
+        return;
+    }
+    t.0[code][0] += 1;
+    for (k, feature) in FEATURES.iter().enumerate() {
+        if scene.contains(feature) {
+            t.0[code][k + 1] += 1;
+        }
+    }
+    if code == 1 {
+        let what: String = err
+            .lines()
+            .find(|l| l.starts_with("error"))
+            .unwrap_or("")
+            .chars()
+            .filter(|c| !c.is_ascii_digit())
+            .take(60)
+            .collect();
+        match t.1.iter_mut().find(|(w, _)| *w == what) {
+            Some((_, n)) => *n += 1,
+            None => t.1.push((what, 1)),
+        }
+    }
+}
+
+fn report() {
+    let t = TALLY.lock().unwrap_or_else(|e| e.into_inner());
+    for (code, row) in t.0.iter().enumerate() {
+        let with: Vec<String> = FEATURES
+            .iter()
+            .zip(&row[1..])
+            .map(|(f, n)| format!("{f} {n}"))
+            .collect();
+        eprintln!("fuzz: exit {code}: {} runs ({})", row[0], with.join(", "));
+    }
+    for (what, n) in &t.1 {
+        eprintln!("fuzz: exit 1 x{n}: {what}");
+    }
+}
+
 fn campaign(n: u32) {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-run");
     fs::create_dir_all(&dir).unwrap();
+    // An octahedron of radius 1 for the mesh colliders.
+    fs::write(
+        dir.join("mesh.obj"),
+        "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n\
+         f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n",
+    )
+    .unwrap();
     runner(n)
         .run(&(scene(), before()), |(scene, b)| {
             run_case(&dir, &scene, &b)
         })
         .unwrap();
+    report();
 }
 
 #[test]

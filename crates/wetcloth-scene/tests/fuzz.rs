@@ -154,6 +154,10 @@ const CLOTH: &[&str] = &[
     "self_collision",
     "strain_limit",
     "strain_limit_iterations",
+    "wetness",
+    "water_mass",
+    "dry_friction_factor",
+    "wet_adhesion",
 ];
 const AIR: &[&str] = &[
     "enabled",
@@ -161,6 +165,12 @@ const AIR: &[&str] = &[
     "trapped_air",
     "leak_conductance",
     "pressure_solve",
+    "pressure_force",
+    "model",
+    "seal_distance",
+    "seal_wetness",
+    "permeability",
+    "dry_permeability",
 ];
 const COLLIDER: &[&str] = &[
     "shape",
@@ -170,7 +180,20 @@ const COLLIDER: &[&str] = &[
     "radius",
     "half_extents",
     "friction",
+    "file",
+    "position",
+    "rotation",
+    "scale",
+    "sticky",
 ];
+const PLANE: &[&str] = &["point", "normal", "friction", "sticky"];
+const SPHERE: &[&str] = &["center", "radius", "friction", "sticky"];
+const BOX: &[&str] = &["center", "half_extents", "friction", "sticky"];
+const MESH: &[&str] = &[
+    "file", "position", "rotation", "scale", "friction", "sticky",
+];
+const PAINT: &[&str] = &["center", "radius", "half_size", "wetness"];
+const POCKET: &[&str] = &["center", "radius", "amount"];
 
 /// Key names: mostly valid ones, sometimes misspelt or foreign.
 fn key(valid: &'static [&'static str]) -> impl Strategy<Value = String> {
@@ -196,7 +219,9 @@ fn good(key: &str) -> BoxedStrategy<String> {
     match key {
         "duration" => num(1e-3..10.0),
         "time_step" => num(1e-5..1e-3),
-        "integrator" => Just("\"verlet\"".to_string()).boxed(),
+        "integrator" => prop::sample::select(vec!["\"verlet\"", "\"implicit\""])
+            .prop_map(String::from)
+            .boxed(),
         "frame_rate" => num(1.0..1000.0),
         "gravity" | "normal" => vec_of(vec![num(-20.0..20.0), num(-20.0..20.0), num(-20.0..20.0)]),
         "size" => vec_of(vec![num(0.01..2.0), num(0.01..2.0)]),
@@ -206,7 +231,40 @@ fn good(key: &str) -> BoxedStrategy<String> {
         "structural_stiffness" | "shear_stiffness" => num(0.0..1e4),
         "damping" => num(0.0..10.0),
         "thickness" | "collision_margin" => num(0.0..0.01),
-        "self_collision" | "enabled" => prop::bool::ANY.prop_map(|b| b.to_string()).boxed(),
+        "wetness" | "seal_wetness" => num(0.0..1.0),
+        "water_mass" => num(0.0..10.0),
+        "dry_friction_factor" => num(0.0..10.0),
+        "wet_adhesion" => num(0.0..1e4),
+        "pressure_force" => prop::sample::select(vec!["\"thesis\"", "\"area\""])
+            .prop_map(String::from)
+            .boxed(),
+        "model" => prop::sample::select(vec!["\"thesis\"", "\"pockets\""])
+            .prop_map(String::from)
+            .boxed(),
+        "seal_distance" => num(0.0..0.01),
+        "permeability" | "dry_permeability" => num(0.0..1e-3),
+        "amount" => num(0.0..1e-3),
+        "rest_center" => vec_of(vec![num(-0.5..0.5), num(-0.5..0.5)]),
+        "half_size" => vec_of(vec![num(0.0..1.0), num(0.0..1.0)]),
+        "rotation" => vec_of(vec![
+            num(-360.0..360.0),
+            num(-360.0..360.0),
+            num(-360.0..360.0),
+        ]),
+        "scale" => num(0.0..10.0),
+        "file" => prop::sample::select(vec![
+            "\"mesh.obj\"",
+            "\"tiny.obj\"",
+            "\"missing.obj\"",
+            "\"damaged.obj\"",
+            "\"\"",
+            "\".\"",
+        ])
+        .prop_map(String::from)
+        .boxed(),
+        "self_collision" | "enabled" | "sticky" => {
+            prop::bool::ANY.prop_map(|b| b.to_string()).boxed()
+        }
         "strain_limit" => num(0.0..1.0),
         "strain_limit_iterations" => int(1..10),
         "atmospheric_pressure" => num(0.0..2e5),
@@ -290,24 +348,97 @@ fn grab() -> impl Strategy<Value = String> {
         })
 }
 
-/// A collider: a shape and some keys.
+/// A collider's motion: keys with times mostly in order, offsets and rotations mostly small.
+fn collider_keys() -> impl Strategy<Value = String> {
+    let key = (
+        prop_oneof![12 => Just(None), 1 => number().prop_map(Some)],
+        0.0f64..0.5,
+        good("point"),
+        prop::option::of(good("rotation")),
+        prop::collection::vec(key(&["x_extra"]).prop_flat_map(value_for), 0..1),
+    );
+    prop::collection::vec(key, 0..4).prop_map(|ks| {
+        let mut t = 0.0;
+        let keys: Vec<String> = ks
+            .into_iter()
+            .map(|(odd, dt, offset, rotation, extra)| {
+                t += dt;
+                let time = odd.unwrap_or_else(|| toml_float(t));
+                let mut k = format!("{{ time = {time}, offset = {offset}");
+                if let Some(r) = rotation {
+                    k += &format!(", rotation = {r}");
+                }
+                for (name, v) in extra {
+                    k += &format!(", {name} = {v}");
+                }
+                k + " }"
+            })
+            .collect();
+        format!("keys = [{}]\n", keys.join(", "))
+    })
+}
+
+/// A collider: a shape and some keys, sometimes moving.
 fn collider() -> impl Strategy<Value = String> {
+    // Mostly the keys of the shape, sometimes those of any shape.
+    let shape_and_keys = prop_oneof![
+        8 => Just(("\"plane\"", PLANE)),
+        3 => Just(("\"sphere\"", SPHERE)),
+        3 => Just(("\"box\"", BOX)),
+        3 => Just(("\"mesh\"", MESH)),
+        1 => prop::sample::select(vec!["\"cone\"", "3", "\"Plane\""]).prop_map(|s| (s, COLLIDER)),
+        2 => prop::sample::select(vec!["\"plane\"", "\"sphere\"", "\"box\"", "\"mesh\""])
+            .prop_map(|s| (s, COLLIDER)),
+    ];
     (
-        prop_oneof![
-            8 => Just("\"plane\""),
-            3 => Just("\"sphere\""),
-            3 => Just("\"box\""),
-            1 => prop::sample::select(vec!["\"cone\"", "3", "\"Plane\""]),
-        ],
-        entries(COLLIDER),
+        shape_and_keys.prop_flat_map(|(shape, keys)| (Just(shape), entries(keys))),
+        prop::option::weighted(0.2, collider_keys()),
+        required(&["file"]),
     )
-        .prop_map(|(shape, e)| {
+        .prop_map(|((shape, e), keys, file)| {
             let mut s = format!("[[collider]]\nshape = {shape}\n");
-            for (k, v) in e.into_iter().filter(|(k, _)| k != "shape") {
+            // A mesh mostly names its file.
+            let file = file.into_iter().filter(|_| shape.contains("mesh"));
+            let mut seen = std::collections::HashSet::new();
+            for (k, v) in file.chain(e).filter(|(k, _)| k != "shape") {
+                if seen.insert(k.clone()) {
+                    s += &format!("{k} = {v}\n");
+                }
+            }
+            s + &keys.unwrap_or_default()
+        })
+}
+
+/// The keys of `required`, each mostly present with a good value.
+fn required(keys: &'static [&'static str]) -> impl Strategy<Value = Vec<(String, String)>> {
+    // A paint region's or a seed's centre is `[x, z]` in the cloth's rest coordinates.
+    let each: Vec<_> = keys
+        .iter()
+        .map(|&k| {
+            let generated = if k == "center" { "rest_center" } else { k };
+            prop::option::weighted(0.95, value_for(generated.to_string()))
+                .prop_map(move |v| v.map(|(_, v)| (k.to_string(), v)))
+        })
+        .collect();
+    each.prop_map(|v| v.into_iter().flatten().collect())
+}
+
+/// A `[[cloth.paint]]` region or an `[[air.pocket]]` seed: mostly its required keys, then any.
+fn sub_table(
+    header: &'static str,
+    valid: &'static [&'static str],
+    needs: &'static [&'static str],
+) -> impl Strategy<Value = String> {
+    (required(needs), entries(valid)).prop_map(move |(need, e)| {
+        let mut s = format!("{header}\n");
+        let mut seen = std::collections::HashSet::new();
+        for (k, v) in need.into_iter().chain(e) {
+            if seen.insert(k.clone()) {
                 s += &format!("{k} = {v}\n");
             }
-            s
-        })
+        }
+        s
+    })
 }
 
 fn table(name: &'static str, valid: &'static [&'static str]) -> impl Strategy<Value = String> {
@@ -333,22 +464,30 @@ fn scene_text() -> impl Strategy<Value = String> {
         prop::option::of(table("air", AIR)),
         prop::collection::vec(collider(), 0..3),
         prop::collection::vec(grab(), 0..2),
+        prop::collection::vec(
+            sub_table("[[cloth.paint]]", PAINT, &["center", "wetness"]),
+            0..2,
+        ),
+        prop::collection::vec(sub_table("[[air.pocket]]", POCKET, POCKET), 0..2),
         any::<bool>(),
     )
-        .prop_map(|(name, sim, cloth, air, colliders, grabs, reverse)| {
-            let mut parts: Vec<String> = Vec::new();
-            parts.extend(sim);
-            parts.extend(cloth);
-            parts.extend(air);
-            parts.extend(colliders);
-            parts.extend(grabs);
-            if reverse {
-                parts.reverse();
-            }
-            let mut s = name.map(|n| format!("name = {n}\n")).unwrap_or_default();
-            s += &parts.join("\n");
-            s
-        })
+        .prop_map(
+            |(name, sim, cloth, air, colliders, grabs, paint, pockets, reverse)| {
+                let mut parts: Vec<String> = Vec::new();
+                parts.extend(sim);
+                // A table's sub-tables follow it (TOML refuses `[cloth]` after `[[cloth.paint]]`).
+                parts.push(cloth.unwrap_or_default() + &paint.join("\n"));
+                parts.push(air.unwrap_or_default() + &pockets.join("\n"));
+                parts.extend(colliders);
+                parts.extend(grabs);
+                if reverse {
+                    parts.reverse();
+                }
+                let mut s = name.map(|n| format!("name = {n}\n")).unwrap_or_default();
+                s += &parts.join("\n");
+                s
+            },
+        )
 }
 
 /// A byte-level change to a text.
@@ -418,11 +557,55 @@ fn mutate(text: &str, mutations: &[Mutation]) -> Vec<u8> {
 /// The properties every scene text must have.
 static ACCEPTED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 static REFUSED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+/// Features whose accepted scenes are counted, to show the campaign reaches them.
+const FEATURES: [&str; 6] = [
+    "\"mesh\"",
+    "\"pockets\"",
+    "[[cloth.paint]]",
+    "[[air.pocket]]",
+    "keys = [{",
+    "\"implicit\"",
+];
+static ACCEPTED_WITH: [std::sync::atomic::AtomicU64; 6] =
+    [const { std::sync::atomic::AtomicU64::new(0) }; 6];
+
+/// The folder the fuzzed scene files "live" in, holding the meshes they name: `mesh.obj` (an
+/// octahedron), `tiny.obj` (one triangle) and `damaged.obj` (cut, with a NaN and a face naming
+/// a missing vertex); `missing.obj` is not there.
+fn scene_path() -> &'static std::path::Path {
+    static PATH: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    PATH.get_or_init(|| {
+        let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-scene");
+        std::fs::create_dir_all(&dir).unwrap();
+        let octahedron = "v 0.1 0 0\nv -0.1 0 0\nv 0 0.1 0\nv 0 -0.1 0\nv 0 0 0.1\nv 0 0 -0.1\n\
+                          f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n";
+        std::fs::write(dir.join("mesh.obj"), octahedron).unwrap();
+        std::fs::write(
+            dir.join("tiny.obj"),
+            "v 0 -1 0\nv 1 -1 0\nv 0 -1 1\nf 1 2 3\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("damaged.obj"),
+            "v 0 0 0\nv nan 1 0\nv 0 0\nf 1 2 9\nf 1",
+        )
+        .unwrap();
+        let _ = std::fs::remove_file(dir.join("missing.obj"));
+        dir.join("s.toml")
+    })
+}
 
 fn check(text: &str) -> Result<(), TestCaseError> {
-    let result = guarded(text, || parse(text, "s.toml".as_ref()));
+    let result = guarded(text, || parse(text, scene_path()));
     let counter = if result.is_ok() { &ACCEPTED } else { &REFUSED };
     counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    if result.is_ok() {
+        for (k, feature) in FEATURES.iter().enumerate() {
+            if text.contains(feature) {
+                ACCEPTED_WITH[k].fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+    }
     match result {
         Ok(scene) => accepted(&scene),
         Err(e) => refused(text, &e),
@@ -437,7 +620,9 @@ fn accepted(scene: &Scene) -> Result<(), TestCaseError> {
     );
     prop_assert!(scene.check_start().is_ok());
     let resolved = scene.to_toml();
-    let back = guarded(&resolved, || parse(&resolved, "resolved.toml".as_ref()));
+    let back = guarded(&resolved, || {
+        parse(&resolved, &scene_path().with_file_name("resolved.toml"))
+    });
     match back {
         Ok(back) => {
             prop_assert_eq!(&back.config, &scene.config, "resolved:\n{}", resolved);
@@ -450,7 +635,11 @@ fn accepted(scene: &Scene) -> Result<(), TestCaseError> {
 
 fn refused(text: &str, e: &SceneError) -> Result<(), TestCaseError> {
     let msg = e.to_string();
-    prop_assert!(msg.starts_with("s.toml"), "{}", msg);
+    prop_assert!(
+        msg.starts_with(&scene_path().display().to_string()),
+        "{}",
+        msg
+    );
     prop_assert!(!msg.contains("panicked"), "{}", msg);
     if let Some(at) = e.location()
         && at.line > 0
@@ -476,9 +665,15 @@ fn refused(text: &str, e: &SceneError) -> Result<(), TestCaseError> {
 
 fn generated_campaign(n: u32) {
     runner(n).run(&scene_text(), |text| check(&text)).unwrap();
+    let with: Vec<String> = FEATURES
+        .iter()
+        .zip(&ACCEPTED_WITH)
+        .map(|(f, n)| format!("{f} {}", n.load(std::sync::atomic::Ordering::Relaxed)))
+        .collect();
     eprintln!(
-        "fuzz: {} accepted, {} refused so far",
+        "fuzz: {} accepted ({}), {} refused so far",
         ACCEPTED.load(std::sync::atomic::Ordering::Relaxed),
+        with.join(", "),
         REFUSED.load(std::sync::atomic::Ordering::Relaxed)
     );
 }
