@@ -148,18 +148,25 @@ fn pinch_measures(integrator: Integrator, dt: Real) -> [Real; 3] {
 /// The pinch of a cloth stuck by the atmosphere, as the explicit integrator at its fine step
 /// (1/12000 s) measures it: the hand's force (5.69 N: the atmosphere on the pinched particle's
 /// area plus the springs, with the neighbours slipping 0.37 mm towards the pinch), and the tent's
-/// height. The implicit integrator agrees within 1 % from 1/120 s to 1/2400 s (measured: 0.02 %),
-/// the 10 % target with room; the neighbours' slip is inside the solve (static friction as a
-/// constraint, released into kinetic friction when the force leaves the cone), so the slip and
-/// the force do not depend on the step. The finer step is closer than the coarsest.
+/// height. Static friction is a constraint in the solve, released into kinetic friction (an
+/// implicit drag lagged one solve in the sliding speed) when the force leaves the cone. The lag
+/// makes the first step of a slide too short, which the coarse steps feel: measured 3.7 % high
+/// at 1/120 s, 1.9 % at 1/300 s, 0.4 % low at 1/600 s and 1/2400 s. Required: within 5 % at
+/// the coarse steps, 1 % from 1/600 s down (the target is 10 %), the tent's height to
+/// 1 %, and the finest step closer than the coarsest.
 #[test]
 fn implicit_pinch_agrees_with_the_explicit_integrator_and_converges() {
     let reference = pinch_measures(Integrator::Verlet, 1.0 / 12000.0);
     let mut errors = Vec::new();
-    for dt in [1.0 / 120.0, 1.0 / 300.0, 1.0 / 600.0, 1.0 / 2400.0] {
+    for (dt, tolerance) in [
+        (1.0 / 120.0, 0.05),
+        (1.0 / 300.0, 0.05),
+        (1.0 / 600.0, 0.01),
+        (1.0 / 2400.0, 0.01),
+    ] {
         let m = pinch_measures(Integrator::Implicit, dt);
         let force = (m[0] - reference[0]) / reference[0];
-        assert!(force.abs() < 0.01, "dt = {dt}: {m:?} vs {reference:?}");
+        assert!(force.abs() < tolerance, "dt = {dt}: {m:?} vs {reference:?}");
         assert!((m[2] - reference[2]).abs() < 0.01 * reference[2], "{m:?}");
         errors.push(force.abs());
     }
@@ -227,4 +234,51 @@ fn implicit_settled_cloth_is_at_rest() {
     run(&mut sim, 1.0);
     let ke = sim.metrics().kinetic_energy;
     assert!(ke < 1e-6, "{ke} J");
+}
+
+/// `scenes/pinch-dry.toml` at 1/120 s: a dry 30 cm cloth (5000 / 1250 N/m, no air) lying on
+/// the table, pinched at its centre and lifted 1.2 cm. Gravity alone presses it, so friction
+/// is tiny beside the springs and the whole cloth slides towards the pinch. Kinetic friction
+/// used to enter the solve as a fixed impulse along the direction the static grip had pushed;
+/// where the slide went another way it did positive work, and the cloth gained 5.5 mJ by
+/// t = 1.07 s (the energy audit stopped the run). As a drag against the slide's own velocity it
+/// can only take energy: the run passes the audit, and the cloth's mechanical energy stays
+/// within the audit's 1 mJ floor of the hand's work (measured: it ends 0.65 mJ below it; two
+/// single-step spikes of the springs' energy, where the lifted cloth buckles, reach 0.38 mJ and
+/// 0.72 mJ above it, against 5.2 mJ before).
+#[test]
+fn implicit_dry_cloth_dragged_over_the_table_gains_no_energy() {
+    let mut cfg = SimConfig::thesis_demo();
+    cfg.cloth.size = [0.30, 0.30];
+    cfg.cloth.resolution = [50, 50];
+    cfg.cloth.mass = 0.02;
+    cfg.cloth.structural_stiffness = 5000.0;
+    cfg.cloth.shear_stiffness = 1250.0;
+    cfg.cloth.damping = 2.0;
+    cfg.cloth.thickness = 0.001;
+    cfg.cloth.collision_margin = 0.0005;
+    cfg.cloth.self_collision = false;
+    cfg.cloth.strain_limit = 0.0;
+    cfg.cloth.position = Vec3::new(0.0, 0.00075, 0.0);
+    cfg.air.enabled = false;
+    cfg.air.trapped_air = 0.0;
+    cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, 0.6)];
+    cfg.grabs = vec![wetcloth::GrabSpec::lift([25, 25], 0.25, 1.25, 0.012)];
+    cfg.simulation.integrator = Integrator::Implicit;
+    cfg.simulation.time_step = 1.0 / 120.0;
+    let mut sim = Simulation::new(cfg).unwrap();
+    let dt = sim.time_step();
+    let energy =
+        |sim: &Simulation| wetcloth::checks::mechanical_energy(sim.model(), sim.state(), dt);
+    let e0 = energy(&sim);
+    let mut worst = Real::NEG_INFINITY;
+    for _ in 0..160 {
+        sim.step().expect("no blow-up, no energy from nowhere");
+        worst = worst.max(energy(&sim) - e0 - sim.control().hand_work());
+    }
+    assert!(
+        worst < 1e-3,
+        "the cloth gained {worst} J beyond the hand's work"
+    );
+    assert!(sim.metrics().max_height > 0.01, "lifted");
 }

@@ -53,19 +53,27 @@ pub const CG_MAX_ITERATIONS: usize = 4000;
 /// Most solves per step while the contact set changes.
 const CONTACT_PASSES: usize = 4;
 
+/// Sliding speed below which kinetic friction acts as a linear drag, m/s: friction on a slide
+/// is `mu F_n vt / max(|vt|, SLIDE_EPSILON)`, lagged one solve in `|vt|` (see
+/// `Constraint::Normal`).
+pub const SLIDE_EPSILON: Real = 1e-3;
+
 /// A particle's constraint in the solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Constraint {
     /// Free.
     Free,
-    /// Its velocity along the unit normal `n` is `vn` (m/s): a sliding contact, `slip` the
-    /// kinetic friction's impulse over the step (N s, tangential), `mu` its friction
-    /// coefficient.
+    /// Its velocity along the unit normal `n` is `vn` (m/s): a sliding contact. Kinetic
+    /// friction enters the solve as a tangential drag `drag` (kg: N s per m/s), `mu` times the
+    /// normal impulse over the sliding speed of the solve before (at least
+    /// [`SLIDE_EPSILON`]): friction of magnitude `mu F_n` opposite to the slide's velocity at
+    /// the end of the step, implicit, so it can slow a slide to rest but never reverse it and
+    /// never do positive work. `mu` is the friction coefficient.
     Normal {
         n: Vec3,
         vn: Real,
         mu: Real,
-        slip: Vec3,
+        drag: Real,
     },
     /// A contact held by static friction: its velocity is `n vn`, nothing tangential, as long
     /// as the force that holds it stays inside the friction cone.
@@ -85,11 +93,11 @@ impl Constraint {
         }
     }
 
-    /// The friction impulse of a sliding contact, N s.
+    /// The friction drag of a sliding contact on `p`: `drag` times its tangential part.
     #[inline]
-    fn slip(self) -> Vec3 {
+    fn drag(self, p: Vec3) -> Vec3 {
         match self {
-            Constraint::Normal { slip, .. } => slip,
+            Constraint::Normal { n, drag, .. } => (p - n * n.dot(p)) * drag,
             _ => Vec3::ZERO,
         }
     }
@@ -192,8 +200,9 @@ pub(crate) struct Implicit {
     z: Soa,
     p: Soa,
     q: Soa,
-    /// Inverse of the diagonal of the system matrix.
+    /// Inverse of the diagonal of the system matrix, and the diagonal without friction drag.
     inv_diag: Soa,
+    diag_base: Soa,
     /// Conjugate-gradient iterations of the last step (all solves).
     pub iterations: usize,
 }
@@ -230,6 +239,7 @@ impl Implicit {
             p: Soa::zeros(n),
             q: Soa::zeros(n),
             inv_diag: Soa::zeros(n),
+            diag_base: Soa::zeros(n),
             iterations: 0,
         }
     }
@@ -250,6 +260,7 @@ impl Implicit {
                 &self.p,
                 &self.q,
                 &self.inv_diag,
+                &self.diag_base,
             ]
             .iter()
             .map(|s| s.heap_bytes())
@@ -399,7 +410,7 @@ impl Implicit {
                 h += self.anti.apply(a - nx, pa - p.get(a - nx + 1));
             }
         }
-        let mut y = pa * self.inertia[a] + h * sys.dt2;
+        let mut y = pa * self.inertia[a] + h * sys.dt2 + self.constraints[a].drag(pa);
         if let Some(r) = sys.regions.of(a) {
             y += self.per_pascal.get(a) * (self.gas[r] * self.dots[r]);
         }
@@ -442,9 +453,20 @@ impl Implicit {
                     let g = self.per_pascal.get(a);
                     d += g * g * self.gas[r];
                 }
+                self.diag_base.set(a, d);
                 self.inv_diag.set(a, Vec3::ONE / d);
             }
         }
+    }
+
+    /// The inverse diagonal at particle `k` after its constraint changed (a slide's drag).
+    fn precondition_one(&mut self, k: usize) {
+        let d = self.diag_base.get(k);
+        let d = match self.constraints[k] {
+            Constraint::Normal { n, drag, .. } => d + (Vec3::ONE - n * n) * drag,
+            _ => d,
+        };
+        self.inv_diag.set(k, Vec3::ONE / d);
     }
 
     /// Solves `A v = rhs` for the free directions, the constrained ones fixed at their values,
@@ -472,9 +494,9 @@ impl Implicit {
         for &k in &active {
             let k = k as usize;
             let c = self.constraints[k];
-            let b = c.filter(self.rhs.get(k) + c.slip());
+            let b = c.filter(self.rhs.get(k));
             bb += b.length_squared();
-            let r = c.filter(self.rhs.get(k) + c.slip() - self.q.get(k));
+            let r = c.filter(self.rhs.get(k) - self.q.get(k));
             self.r.set(k, r);
             let z = c.filter(r * self.inv_diag.get(k));
             self.z.set(k, z);
@@ -592,11 +614,34 @@ impl Implicit {
             let mut changed = false;
             for k in 0..n {
                 match self.constraints[k] {
-                    Constraint::Normal { n: normal, .. } => {
+                    Constraint::Normal {
+                        n: normal,
+                        vn,
+                        mu,
+                        drag,
+                    } => {
+                        // The normal impulse: the residual without the drag's share.
+                        let v = self.v.get(k);
                         let lambda = self.q.get(k) - self.rhs.get(k);
-                        if lambda.dot(normal) < 0.0 {
+                        let push = lambda.dot(normal);
+                        if push < 0.0 {
                             self.constraints[k] = Constraint::Free;
+                            self.precondition_one(k);
                             changed = true;
+                        } else {
+                            // The drag for the speed this solve found.
+                            let vt = (v - normal * normal.dot(v)).length();
+                            let new = mu * push / vt.max(SLIDE_EPSILON);
+                            if (new - drag).abs() > 0.25 * drag.max(new) {
+                                self.constraints[k] = Constraint::Normal {
+                                    n: normal,
+                                    vn,
+                                    mu,
+                                    drag: new,
+                                };
+                                self.precondition_one(k);
+                                changed = true;
+                            }
                         }
                     }
                     Constraint::Free => {
@@ -616,15 +661,17 @@ impl Implicit {
                             self.constraints[k] = Constraint::Free;
                             changed = true;
                         } else if shear > mu * push {
-                            // Slides: the friction gives mu times the normal force, in the
-                            // direction the grip would have pushed.
-                            let t = (lambda - normal * push) / shear;
+                            // Slides, against kinetic friction: a drag for the speed it had at
+                            // the start of the step.
+                            let v0 = state.velocity(k, dt);
+                            let vt = (v0 - normal * normal.dot(v0)).length();
                             self.constraints[k] = Constraint::Normal {
                                 n: normal,
                                 vn,
                                 mu,
-                                slip: t * (mu * push),
+                                drag: mu * push / vt.max(SLIDE_EPSILON),
                             };
+                            self.precondition_one(k);
                             changed = true;
                         }
                     }
@@ -657,19 +704,12 @@ impl Implicit {
         let mut volume_change = vec![0.0; self.regions.list.len()];
         for k in 0..n {
             let x = state.x.get(k);
-            let mut v = self.v.get(k);
+            let v = self.v.get(k);
             let mut touched = false;
             match self.constraints[k] {
-                Constraint::Normal {
-                    n: normal, slip, ..
-                } => {
+                Constraint::Normal { n: normal, .. } => {
                     let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
                     touched = push > 0.0;
-                    // Kinetic friction stops a slide; it never reverses it.
-                    let vt = v - normal * normal.dot(v);
-                    if touched && vt.dot(slip) > 0.0 {
-                        v -= vt;
-                    }
                 }
                 Constraint::Stick { n: normal, .. } => {
                     let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
