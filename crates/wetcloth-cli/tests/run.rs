@@ -255,6 +255,33 @@ fn a_blow_up_exits_1_and_keeps_complete_frames_and_metrics() {
     assert_eq!(json["complete"], false);
 }
 
+/// The explicit stability warning is for the explicit integrator: the same large step warns
+/// with Verlet and not with the implicit integrator (it printed "will probably blow up" on
+/// every implicit run).
+#[test]
+fn only_explicit_runs_warn_about_the_explicit_stability_limit() {
+    let dir = scratch("stability-warning");
+    for (integrator, warns) in [("verlet", true), ("implicit", false)] {
+        let scene = write_scene(
+            &dir,
+            &format!("{integrator}.toml"),
+            &format!(
+                "[simulation]\nduration = 0.02\ntime_step = 0.005\nframe_rate = 100\n\
+                 integrator = \"{integrator}\"\n[cloth]\nresolution = [6, 6]\n\
+                 self_collision = false\n[air]\nenabled = false\n"
+            ),
+        );
+        let out = dir.join(integrator);
+        let o = wetcloth(&["run", &scene, "--out", out.to_str().unwrap(), "-q"], &[]);
+        let err = stderr(&o);
+        assert_eq!(
+            err.contains("stability limit"),
+            warns,
+            "{integrator}: {err}"
+        );
+    }
+}
+
 #[test]
 fn outputs_are_byte_identical_whatever_the_thread_count() {
     let dir = scratch("determinism");
