@@ -203,8 +203,10 @@ pub(crate) struct Implicit {
     /// Inverse of the diagonal of the system matrix, and the diagonal without friction drag.
     inv_diag: Soa,
     diag_base: Soa,
-    /// Conjugate-gradient iterations of the last step (all solves).
+    /// Conjugate-gradient iterations of the last step (all solves), and of every step since
+    /// this scratch was made.
     pub iterations: usize,
+    pub total_iterations: u64,
 }
 
 /// The step's constants the matrix needs.
@@ -241,6 +243,7 @@ impl Implicit {
             inv_diag: Soa::zeros(n),
             diag_base: Soa::zeros(n),
             iterations: 0,
+            total_iterations: 0,
         }
     }
 
@@ -682,6 +685,7 @@ impl Implicit {
                 break;
             }
         }
+        self.total_iterations += self.iterations as u64;
         // The constraint forces of the final solution (in `q`): the hands' and the contacts'.
         self.regions = regions;
         let Motion::Previous(prev) = &mut state.motion else {
@@ -792,7 +796,7 @@ fn contact_constraint(
             nearest = gap;
             best = Constraint::Stick {
                 n,
-                vn: (-gap / dt).max(0.0),
+                vn: -gap / dt,
                 mu: c.friction * scale,
             };
         }
@@ -814,7 +818,7 @@ fn landing_constraint(model: &Model, k: usize, x: Vec3, to: Vec3, dt: Real) -> O
             let gap = c.distance(x).0 - model.radius;
             best = Some(Constraint::Stick {
                 n,
-                vn: (-gap / dt).max(0.0),
+                vn: -gap / dt,
                 mu: c.friction * scale,
             });
         }
