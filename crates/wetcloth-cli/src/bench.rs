@@ -6,6 +6,11 @@
 //! requested size, lets it run for a warm-up, then times consecutive windows of
 //! [`Simulation::advance`], the same stepping `run` and the viewer use, and reports the median
 //! window. Medians, because a shared machine's timings have long upper tails.
+//!
+//! With `--scene FILE` it measures that scene instead: the scene from its start, without
+//! writing anything, for its whole duration or until `--seconds` of wall time have passed,
+//! once per thread count, reporting the simulated seconds per wall second (the real-time
+//! factor) and, with the implicit integrator, the conjugate-gradient iterations per step.
 
 use crate::error::CliError;
 use clap::Args;
@@ -65,13 +70,21 @@ pub struct BenchArgs {
     pub air_model: AirModelKind,
 
     /// The integrator: `verlet` (position Verlet, the thesis' eq. 3.1) or `implicit` (backward
-    /// Euler with a conjugate gradient).
-    #[arg(long, default_value = "verlet", value_name = "NAME", value_parser = parse_integrator)]
-    pub integrator: wetcloth::Integrator,
+    /// Euler with a conjugate gradient). Default: `verlet` (with `--scene`: the scene's).
+    #[arg(long, value_name = "NAME", value_parser = parse_integrator)]
+    pub integrator: Option<wetcloth::Integrator>,
 
-    /// Time step, s. Default: the workload's 1/12000 s with `verlet`, 1/600 s with `implicit`.
+    /// Time step, s. Default: the workload's 1/12000 s with `verlet`, 1/600 s with `implicit`
+    /// (with `--scene`: the scene's own step).
     #[arg(long, value_name = "S", value_parser = parse_time_step)]
     pub time_step: Option<f64>,
+
+    /// Measure this scene file instead of the thesis workload: it runs from its start for its
+    /// whole duration (or until `--seconds` of wall time), writing nothing, once per thread
+    /// count. `--integrator` and `--time-step` override the scene's when given; `--sizes` and
+    /// `--air-model` do not apply.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["sizes", "air_model"])]
+    pub scene: Option<PathBuf>,
 }
 
 fn parse_integrator(s: &str) -> Result<wetcloth::Integrator, String> {
@@ -145,6 +158,13 @@ pub struct Measurement {
     pub measured_seconds: f64,
     /// The thesis' frame rate for this particle count (table 4.2), if it lists it.
     pub thesis_steps_per_second: Option<f64>,
+    /// The scene file measured (`--scene`), or none for the thesis workload.
+    pub scene: Option<PathBuf>,
+    /// Simulated seconds covered: the scene's duration, or less where `--seconds` stopped it
+    /// (`--scene` only; the workload's windows otherwise).
+    pub simulated_seconds: f64,
+    /// Conjugate-gradient iterations per step, mean over the measured steps (0 with Verlet).
+    pub solver_iterations_per_step: f64,
 }
 
 /// Runs `wetcloth bench`.
@@ -171,6 +191,18 @@ pub fn bench(args: &BenchArgs, quiet: bool) -> Result<(), CliError> {
         b
     };
     let mut results = Vec::with_capacity(total);
+    if let Some(path) = &args.scene {
+        for &t in &threads {
+            bar.set_message(format!("{}, {t} thread(s)", path.display()));
+            results.push(measure_scene(path, t, args)?);
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        if !quiet {
+            print_scene_table(&results);
+        }
+        return write_json(args, &results);
+    }
     for &side in &sizes {
         for &t in &threads {
             bar.set_message(format!("{side} x {side}, {t} thread(s)"));
@@ -183,11 +215,46 @@ pub fn bench(args: &BenchArgs, quiet: bool) -> Result<(), CliError> {
     if !quiet {
         print_table(&results);
     }
+    write_json(args, &results)
+}
+
+fn write_json(args: &BenchArgs, results: &[Measurement]) -> Result<(), CliError> {
     if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&results).expect("plain data serialises");
+        let text = serde_json::to_string_pretty(results).expect("plain data serialises");
         std::fs::write(path, text + "\n").map_err(CliError::output(path))?;
     }
     Ok(())
+}
+
+fn print_scene_table(results: &[Measurement]) {
+    println!(
+        "{:>9} {:>7} {:>10} {:>10} {:>10} {:>10} {:>14}",
+        "particles", "threads", "simulated", "wall", "steps/s", "real-time", "CG iter/step"
+    );
+    for m in results {
+        println!(
+            "{:>9} {:>7} {:>9.3}s {:>9.2}s {:>10.0} {:>9.3}x {:>14.1}",
+            m.particles,
+            m.threads,
+            m.simulated_seconds,
+            m.measured_seconds,
+            m.steps_per_second,
+            m.real_time_factor,
+            m.solver_iterations_per_step
+        );
+    }
+    if let Some(m) = results.first() {
+        println!(
+            "({}; {} integrator; time step {:.4e} s; self-collision {})",
+            m.scene
+                .as_deref()
+                .unwrap_or(std::path::Path::new("-"))
+                .display(),
+            m.integrator,
+            m.time_step,
+            if m.self_collision { "on" } else { "off" }
+        );
+    }
 }
 
 /// Times the workload of `side x side` particles on `threads` threads.
@@ -205,8 +272,9 @@ fn measure(
     let mut cfg = thesis_workload(side);
     cfg.cloth.self_collision = self_collision;
     cfg.air.model = args.air_model;
-    cfg.simulation.integrator = args.integrator;
-    cfg.simulation.time_step = args.time_step.unwrap_or(match args.integrator {
+    let integrator = args.integrator.unwrap_or(wetcloth::Integrator::Verlet);
+    cfg.simulation.integrator = integrator;
+    cfg.simulation.time_step = args.time_step.unwrap_or(match integrator {
         wetcloth::Integrator::Verlet => cfg.simulation.time_step,
         wetcloth::Integrator::Implicit => 1.0 / 600.0,
     });
@@ -235,6 +303,7 @@ fn measure(
         }
         let mut rates = Vec::with_capacity(WINDOWS as usize);
         let mut steps = 0u64;
+        let iterations_before = sim.solver_iterations();
         for _ in 0..WINDOWS {
             let t = Instant::now();
             let mut done = 0u64;
@@ -258,7 +327,7 @@ fn measure(
             time_step: dt,
             self_collision,
             air_model: args.air_model.name(),
-            integrator: args.integrator.name(),
+            integrator: integrator.name(),
             memory_bytes: sim.memory_bytes(),
             steps_per_second_range: [rates[0], rates[rates.len() - 1]],
             windows: WINDOWS,
@@ -268,6 +337,81 @@ fn measure(
                 .iter()
                 .find(|(n, _)| *n == particles)
                 .map(|(_, fps)| *fps),
+            scene: None,
+            simulated_seconds: steps as f64 * dt,
+            solver_iterations_per_step: (sim.solver_iterations() - iterations_before) as f64
+                / steps.max(1) as f64,
+        })
+    })
+}
+
+/// Runs the scene `path` from its start on `threads` threads, for its duration or until
+/// `args.seconds` of wall time.
+fn measure_scene(
+    path: &std::path::Path,
+    threads: usize,
+    args: &BenchArgs,
+) -> Result<Measurement, CliError> {
+    let scene = wetcloth_scene::load(path)?;
+    let mut cfg = scene.config;
+    if let Some(integrator) = args.integrator {
+        cfg.simulation.integrator = integrator;
+    }
+    if let Some(dt) = args.time_step {
+        cfg.simulation.time_step = dt;
+    }
+    if args.no_self_collision {
+        cfg.cloth.self_collision = false;
+    }
+    cfg.validate().map_err(|e| CliError::Setup(e.to_string()))?;
+    let dt = cfg.simulation.time_step;
+    let integrator = cfg.simulation.integrator;
+    let self_collision = cfg.cloth.self_collision;
+    let air_model = cfg.air.model.name();
+    let total = (cfg.simulation.duration / dt).round().max(1.0) as u64;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| CliError::Setup(format!("cannot start {threads} threads: {e}")))?;
+    pool.install(|| {
+        let mut sim = Simulation::new(cfg).map_err(|e| CliError::Setup(e.to_string()))?;
+        let particles = sim.grid().len();
+        let side = sim.grid().nx;
+        let start = Instant::now();
+        // Chunks of at most 1 % of the scene, so `--seconds` stops it in time.
+        let chunk = (total / 100).max(1);
+        let mut steps = 0u64;
+        while steps < total && start.elapsed().as_secs_f64() < args.seconds {
+            let n = chunk.min(total - steps);
+            sim.advance(n).map_err(|error| CliError::BlowUp {
+                error,
+                frames: 0,
+                dir: PathBuf::from("."),
+            })?;
+            steps += n;
+        }
+        let wall = start.elapsed().as_secs_f64().max(1e-9);
+        let rate = steps as f64 / wall;
+        Ok(Measurement {
+            particles,
+            side,
+            threads,
+            steps_per_second: rate,
+            particle_steps_per_second: rate * particles as f64,
+            real_time_factor: rate * dt,
+            time_step: dt,
+            self_collision,
+            air_model,
+            integrator: integrator.name(),
+            memory_bytes: sim.memory_bytes(),
+            steps_per_second_range: [rate, rate],
+            windows: 1,
+            steps,
+            measured_seconds: wall,
+            thesis_steps_per_second: None,
+            scene: Some(path.to_path_buf()),
+            simulated_seconds: steps as f64 * dt,
+            solver_iterations_per_step: sim.solver_iterations() as f64 / steps.max(1) as f64,
         })
     })
 }

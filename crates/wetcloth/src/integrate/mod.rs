@@ -88,6 +88,14 @@ impl IntegratorState {
         }
     }
 
+    /// Conjugate-gradient iterations of every step so far (all their solves); 0 for Verlet.
+    pub fn solver_iterations(&self) -> u64 {
+        match self {
+            IntegratorState::Verlet(_) => 0,
+            IntegratorState::Implicit(i) => i.total_iterations,
+        }
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         match self {
