@@ -120,6 +120,8 @@ struct SpringSet {
     d: Soa,
     ks: Vec<Real>,
     kd: Vec<Real>,
+    /// Per spring: its force on its first particle (N), or `H_e (p_a - p_b)` in a product.
+    w: Soa,
 }
 
 impl SpringSet {
@@ -128,27 +130,134 @@ impl SpringSet {
             d: Soa::zeros(n),
             ks: vec![0.0; n],
             kd: vec![0.0; n],
+            w: Soa::zeros(n),
         }
     }
 
-    /// Sets spring `e` between `xa` and `xb` (stiffness `k`, rest length `l`) and returns the
-    /// force on `a`, N.
-    #[inline]
-    fn set(&mut self, e: usize, xa: Vec3, xb: Vec3, k: Real, l: Real) -> Vec3 {
-        let d = xb - xa;
-        let len = d.length();
-        if len < 1e-12 {
-            self.d.set(e, Vec3::ZERO);
-            self.ks[e] = 0.0;
-            self.kd[e] = 0.0;
-            return Vec3::ZERO;
+    /// Linearises the springs `e` in `range` between particles `e + oa` and `e + ob` of `x`
+    /// (stiffness `k`, rest length `l`), and stores each one's force on its first particle in
+    /// `w`: [`SpringSet::set`] over contiguous slices, which the compiler vectorises.
+    fn set_range(
+        &mut self,
+        x: &Soa,
+        range: std::ops::Range<usize>,
+        oa: usize,
+        ob: usize,
+        k: Real,
+        l: Real,
+    ) {
+        let (e0, e1) = (range.start, range.end);
+        let (a0, a1, b0, b1) = (e0 + oa, e1 + oa, e0 + ob, e1 + ob);
+        let (xa, ya, za) = (&x.x[a0..a1], &x.y[a0..a1], &x.z[a0..a1]);
+        let (xb, yb, zb) = (&x.x[b0..b1], &x.y[b0..b1], &x.z[b0..b1]);
+        let (dx, dy, dz) = (
+            &mut self.d.x[e0..e1],
+            &mut self.d.y[e0..e1],
+            &mut self.d.z[e0..e1],
+        );
+        let (ks, kd) = (&mut self.ks[e0..e1], &mut self.kd[e0..e1]);
+        let (wx, wy, wz) = (
+            &mut self.w.x[e0..e1],
+            &mut self.w.y[e0..e1],
+            &mut self.w.z[e0..e1],
+        );
+        for e in 0..e1 - e0 {
+            let (px, py, pz) = (xb[e] - xa[e], yb[e] - ya[e], zb[e] - za[e]);
+            let len = (px * px + py * py + pz * pz).sqrt();
+            let live = len >= 1e-12;
+            let safe = if live { len } else { 1.0 };
+            let (ux, uy, uz) = (px / safe, py / safe, pz / safe);
+            let s = (1.0 - l / safe).max(0.0);
+            let f = k * (len - l);
+            dx[e] = if live { ux } else { 0.0 };
+            dy[e] = if live { uy } else { 0.0 };
+            dz[e] = if live { uz } else { 0.0 };
+            ks[e] = if live { k * s } else { 0.0 };
+            kd[e] = if live { k * (1.0 - s) } else { 0.0 };
+            wx[e] = if live { ux * f } else { 0.0 };
+            wy[e] = if live { uy * f } else { 0.0 };
+            wz[e] = if live { uz * f } else { 0.0 };
         }
-        let u = d / len;
-        let s = (1.0 - l / len).max(0.0);
-        self.d.set(e, u);
-        self.ks[e] = k * s;
-        self.kd[e] = k * (1.0 - s);
-        u * (k * (len - l))
+    }
+
+    /// `w_e = H_e (p_a - p_b)` for the springs `e` in `range` between particles `e + oa` and
+    /// `e + ob`, over contiguous slices.
+    fn product_range(&mut self, p: &Soa, range: std::ops::Range<usize>, oa: usize, ob: usize) {
+        let (e0, e1) = (range.start, range.end);
+        let (a0, a1, b0, b1) = (e0 + oa, e1 + oa, e0 + ob, e1 + ob);
+        let (xa, ya, za) = (&p.x[a0..a1], &p.y[a0..a1], &p.z[a0..a1]);
+        let (xb, yb, zb) = (&p.x[b0..b1], &p.y[b0..b1], &p.z[b0..b1]);
+        let (dx, dy, dz) = (&self.d.x[e0..e1], &self.d.y[e0..e1], &self.d.z[e0..e1]);
+        let (ks, kd) = (&self.ks[e0..e1], &self.kd[e0..e1]);
+        let (wx, wy, wz) = (
+            &mut self.w.x[e0..e1],
+            &mut self.w.y[e0..e1],
+            &mut self.w.z[e0..e1],
+        );
+        for e in 0..e1 - e0 {
+            let (qx, qy, qz) = (xa[e] - xb[e], ya[e] - yb[e], za[e] - zb[e]);
+            let along = kd[e] * (dx[e] * qx + dy[e] * qy + dz[e] * qz);
+            wx[e] = qx * ks[e] + dx[e] * along;
+            wy[e] = qy * ks[e] + dy[e] * along;
+            wz[e] = qz * ks[e] + dz[e] * along;
+        }
+    }
+
+    /// `out[e + oa] += w_e` and `out[e + ob] -= w_e` (or `+=` with `both`) for the springs
+    /// `e` in `range`.
+    fn scatter_range(&self, out: &mut Soa, range: std::ops::Range<usize>, oa: usize, ob: usize) {
+        self.scatter(out, range, oa, ob, -1.0);
+    }
+
+    fn scatter(
+        &self,
+        out: &mut Soa,
+        range: std::ops::Range<usize>,
+        oa: usize,
+        ob: usize,
+        sign: Real,
+    ) {
+        let (e0, e1) = (range.start, range.end);
+        for (o, w) in [
+            (&mut out.x, &self.w.x),
+            (&mut out.y, &self.w.y),
+            (&mut out.z, &self.w.z),
+        ] {
+            let w = &w[e0..e1];
+            for (o, w) in o[e0 + oa..e1 + oa].iter_mut().zip(w) {
+                *o += w;
+            }
+            for (o, w) in o[e0 + ob..e1 + ob].iter_mut().zip(w) {
+                *o += sign * w;
+            }
+        }
+    }
+
+    /// `w_e` = the diagonal of `H_e` for the springs `e` in `range`, added to both particles
+    /// (`e + oa`, `e + ob`) of `out`.
+    fn diagonal_range(
+        &mut self,
+        out: &mut Soa,
+        range: std::ops::Range<usize>,
+        oa: usize,
+        ob: usize,
+    ) {
+        let (e0, e1) = (range.start, range.end);
+        for (w, d) in [
+            (&mut self.w.x, &self.d.x),
+            (&mut self.w.y, &self.d.y),
+            (&mut self.w.z, &self.d.z),
+        ] {
+            for (((w, d), ks), kd) in w[e0..e1]
+                .iter_mut()
+                .zip(&d[e0..e1])
+                .zip(&self.ks[e0..e1])
+                .zip(&self.kd[e0..e1])
+            {
+                *w = ks + d * d * kd;
+            }
+        }
+        self.scatter(out, range, oa, ob, 1.0);
     }
 
     /// `H_e p` (N/m times m/s).
@@ -158,15 +267,8 @@ impl SpringSet {
         p * self.ks[e] + d * (self.kd[e] * d.dot(p))
     }
 
-    /// Diagonal of `H_e`.
-    #[inline]
-    fn diagonal(&self, e: usize) -> Vec3 {
-        let d = self.d.get(e);
-        Vec3::splat(self.ks[e]) + d * d * self.kd[e]
-    }
-
     fn heap_bytes(&self) -> usize {
-        self.d.heap_bytes() + (self.ks.capacity() + self.kd.capacity()) * 8
+        self.d.heap_bytes() + self.w.heap_bytes() + (self.ks.capacity() + self.kd.capacity()) * 8
     }
 }
 
@@ -281,27 +383,27 @@ impl Implicit {
         for k in 0..n {
             self.force.set(k, model.gravity * model.mass(k));
         }
+        // Each direction's springs over contiguous runs of their first index (a row, or for
+        // `down` the whole grid but its last row), then their forces scattered.
         for j in 0..nz {
-            for i in 0..nx {
-                let a = j * nx + i;
-                let mut add = |set: &mut SpringSet, e: usize, a: usize, b: usize, k, l| {
-                    let f = set.set(e, x.get(a), x.get(b), k, l);
-                    let (fa, fb) = (self.force.get(a) + f, self.force.get(b) - f);
-                    self.force.set(a, fa);
-                    self.force.set(b, fb);
-                };
-                if i + 1 < nx {
-                    add(&mut self.right, a, a, a + 1, c.structural, c.rest_x);
-                }
-                if j + 1 < nz {
-                    add(&mut self.down, a, a, a + nx, c.structural, c.rest_z);
-                    if i + 1 < nx {
-                        add(&mut self.diag, a, a, a + nx + 1, c.shear, c.rest_diag);
-                        add(&mut self.anti, a, a + 1, a + nx, c.shear, c.rest_diag);
-                    }
-                }
+            let row = j * nx..j * nx + nx - 1;
+            self.right
+                .set_range(x, row.clone(), 0, 1, c.structural, c.rest_x);
+            self.right.scatter_range(&mut self.force, row.clone(), 0, 1);
+            if j + 1 < nz {
+                self.diag
+                    .set_range(x, row.clone(), 0, nx + 1, c.shear, c.rest_diag);
+                self.diag
+                    .scatter_range(&mut self.force, row.clone(), 0, nx + 1);
+                self.anti
+                    .set_range(x, row.clone(), 1, nx, c.shear, c.rest_diag);
+                self.anti.scatter_range(&mut self.force, row, 1, nx);
             }
         }
+        let down = 0..(nz - 1) * nx;
+        self.down
+            .set_range(x, down.clone(), 0, nx, c.structural, c.rest_z);
+        self.down.scatter_range(&mut self.force, down, 0, nx);
         // The pressure force of 1 Pa on every particle: S N_i (or by area).
         if self.regions.list.is_empty() && self.regions.extra.is_empty() {
             return;
@@ -354,7 +456,8 @@ impl Implicit {
         // The regions' dot products g_r . p, in particle order.
         self.dots.clear();
         self.dots.resize(sys.regions.list.len(), 0.0);
-        if !self.dots.is_empty() {
+        // A region without a gas spring (a vacuum, or the pressure known now) needs none.
+        if self.gas.iter().any(|&g| g != 0.0) {
             let mut add = |k: usize| {
                 if let Some(r) = sys.regions.of(k) {
                     self.dots[r] += self.per_pascal.get(k).dot(p.get(k));
@@ -373,11 +476,54 @@ impl Implicit {
                     self.q.set(k as usize, y);
                 }
             }
-            None => {
-                for k in 0..n {
-                    let y = self.row_apply(sys, p, k);
-                    self.q.set(k, y);
-                }
+            None => self.apply_all(sys, which),
+        }
+    }
+
+    /// `q = A p` on every particle, a direction of springs at a time (vectorised), with the
+    /// regions' dot products in `self.dots`.
+    fn apply_all(&mut self, sys: &System<'_>, which: Which) {
+        let (nx, nz) = (sys.nx, sys.nz);
+        let p = match which {
+            Which::P => &self.p,
+            Which::V => &self.v,
+        };
+        // q = H p first (in `q`), then scaled and the inertia and gas added.
+        for v in [&mut self.q.x, &mut self.q.y, &mut self.q.z] {
+            v.fill(0.0);
+        }
+        for j in 0..nz {
+            let row = j * nx..j * nx + nx - 1;
+            self.right.product_range(p, row.clone(), 0, 1);
+            self.right.scatter_range(&mut self.q, row.clone(), 0, 1);
+            if j + 1 < nz {
+                self.diag.product_range(p, row.clone(), 0, nx + 1);
+                self.diag.scatter_range(&mut self.q, row.clone(), 0, nx + 1);
+                self.anti.product_range(p, row.clone(), 1, nx);
+                self.anti.scatter_range(&mut self.q, row, 1, nx);
+            }
+        }
+        let down = 0..(nz - 1) * nx;
+        self.down.product_range(p, down.clone(), 0, nx);
+        self.down.scatter_range(&mut self.q, down, 0, nx);
+        let dt2 = sys.dt2;
+        for (q, p) in [
+            (&mut self.q.x, &p.x),
+            (&mut self.q.y, &p.y),
+            (&mut self.q.z, &p.z),
+        ] {
+            for ((q, p), m) in q.iter_mut().zip(p).zip(&self.inertia) {
+                *q = p * m + *q * dt2;
+            }
+        }
+        for a in 0..nx * nz {
+            let c = self.constraints[a];
+            let mut y = self.q.get(a) + c.drag(p.get(a));
+            if let Some(r) = sys.regions.of(a) {
+                y += self.per_pascal.get(a) * (self.gas[r] * self.dots[r]);
+            }
+            if y != self.q.get(a) {
+                self.q.set(a, y);
             }
         }
     }
@@ -420,46 +566,32 @@ impl Implicit {
         y
     }
 
-    /// The inverse diagonal of `A`.
+    /// The inverse diagonal of `A` (a direction of springs at a time, vectorised).
     fn precondition(&mut self, sys: &System<'_>) {
         let (nx, nz) = (sys.nx, sys.nz);
+        let mut h = std::mem::take(&mut self.diag_base);
+        for v in [&mut h.x, &mut h.y, &mut h.z] {
+            v.fill(0.0);
+        }
         for j in 0..nz {
-            for i in 0..nx {
-                let a = j * nx + i;
-                let mut h = Vec3::ZERO;
-                if i + 1 < nx {
-                    h += self.right.diagonal(a);
-                }
-                if i > 0 {
-                    h += self.right.diagonal(a - 1);
-                }
-                if j + 1 < nz {
-                    h += self.down.diagonal(a);
-                    if i + 1 < nx {
-                        h += self.diag.diagonal(a);
-                    }
-                    if i > 0 {
-                        h += self.anti.diagonal(a - 1);
-                    }
-                }
-                if j > 0 {
-                    h += self.down.diagonal(a - nx);
-                    if i > 0 {
-                        h += self.diag.diagonal(a - nx - 1);
-                    }
-                    if i + 1 < nx {
-                        h += self.anti.diagonal(a - nx);
-                    }
-                }
-                let mut d = Vec3::splat(self.inertia[a]) + h * sys.dt2;
-                if let Some(r) = sys.regions.of(a) {
-                    let g = self.per_pascal.get(a);
-                    d += g * g * self.gas[r];
-                }
-                self.diag_base.set(a, d);
-                self.inv_diag.set(a, Vec3::ONE / d);
+            let row = j * nx..j * nx + nx - 1;
+            self.right.diagonal_range(&mut h, row.clone(), 0, 1);
+            if j + 1 < nz {
+                self.diag.diagonal_range(&mut h, row.clone(), 0, nx + 1);
+                self.anti.diagonal_range(&mut h, row, 1, nx);
             }
         }
+        self.down.diagonal_range(&mut h, 0..(nz - 1) * nx, 0, nx);
+        for a in 0..nx * nz {
+            let mut d = Vec3::splat(self.inertia[a]) + h.get(a) * sys.dt2;
+            if let Some(r) = sys.regions.of(a) {
+                let g = self.per_pascal.get(a);
+                d += g * g * self.gas[r];
+            }
+            h.set(a, d);
+            self.inv_diag.set(a, Vec3::ONE / d);
+        }
+        self.diag_base = h;
     }
 
     /// The inverse diagonal at particle `k` after its constraint changed (a slide's drag).
@@ -480,12 +612,14 @@ impl Implicit {
         // The particles with a free direction: the solve runs over them alone.
         let mut active = std::mem::take(&mut self.active);
         active.clear();
+        // `p` is read at the neighbours of the active particles, so it is zero elsewhere; `r`
+        // and `z` are only read on the active ones, which set them below.
+        for v in [&mut self.p.x, &mut self.p.y, &mut self.p.z] {
+            v.fill(0.0);
+        }
         for k in 0..n {
             let c = self.constraints[k];
             self.v.set(k, c.filter(self.v.get(k)) + c.value());
-            self.r.set(k, Vec3::ZERO);
-            self.z.set(k, Vec3::ZERO);
-            self.p.set(k, Vec3::ZERO);
             if matches!(c, Constraint::Free | Constraint::Normal { .. }) {
                 active.push(k as u32);
             }
@@ -574,13 +708,18 @@ impl Implicit {
         }));
         self.forces(model, &state.x);
         let c = model.damping;
+        let Motion::Previous(prev) = &state.motion else {
+            unreachable!("converted above")
+        };
         for k in 0..n {
             let m = model.mass(k);
             self.inertia[k] = m * (1.0 + dt * c);
-            let v = state.velocity(k, dt);
+            let v = (state.x.get(k) - prev.get(k)) / dt;
             self.rhs.set(k, v * m + self.force.get(k) * dt);
             // First guess: the velocity after gravity alone (exact in free fall).
             self.v.set(k, v + model.gravity * dt);
+            // The velocity at the start, for the contacts below (`r` is free until the solve).
+            self.r.set(k, v);
         }
         // Constraints: the hands, then contacts where a particle touches or would reach a
         // collider during the step at its current speed.
@@ -592,7 +731,7 @@ impl Implicit {
             if self.constraints[k] != Constraint::Free {
                 continue;
             }
-            let (x, v) = (state.x.get(k), state.velocity(k, dt));
+            let (x, v) = (state.x.get(k), self.r.get(k));
             self.constraints[k] = contact_constraint(model, k, x, v, dt, state.contact[k]);
         }
         // `System` borrows the regions; the rest of `self` is used mutably below.
@@ -705,6 +844,7 @@ impl Implicit {
         control.hand_work += work;
         // Friction, the move, and any contact the solve did not foresee.
         let mut moved: Real = 0.0;
+        let single_still = model.colliders.len() == 1 && model.moving.is_empty();
         let mut volume_change = vec![0.0; self.regions.list.len()];
         for k in 0..n {
             let x = state.x.get(k);
@@ -728,11 +868,20 @@ impl Implicit {
                     .find(|&(p, _)| p == k)
                     .map_or(to, |(_, t)| t);
             } else if !model.colliders.is_empty() {
-                let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
-                let (p, hit) =
-                    contact::resolve_scaled(&model.colliders, x, to, model.radius, scale);
-                to = p;
-                touched |= hit;
+                // A contact of the solve against the only (still) collider already ends on its
+                // surface; anything else is checked.
+                let settled = single_still
+                    && matches!(
+                        self.constraints[k],
+                        Constraint::Stick { .. } | Constraint::Normal { .. }
+                    );
+                if !settled {
+                    let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
+                    let (p, hit) =
+                        contact::resolve_scaled(&model.colliders, x, to, model.radius, scale);
+                    to = p;
+                    touched |= hit;
+                }
                 if let Some(reference) = fused.reference {
                     moved = moved.max((to - reference.get(k)).length_squared());
                 }
