@@ -6,6 +6,10 @@
 //! and (c) the analytic sphere it approximates. Particle-steps per second are the items per
 //! second divan reports; `docs/performance.md` quotes them.
 
+#[path = "../tests/common/icosphere.rs"]
+mod icosphere;
+
+use icosphere::icosphere;
 use wetcloth::collide::Mesh;
 use wetcloth::{AirParams, ClothParams, Collider, Real, SimConfig, Simulation, Vec3};
 
@@ -15,66 +19,6 @@ fn main() {
         .build_global()
         .expect("first pool");
     divan::main();
-}
-
-/// An icosphere of radius `r`: the icosahedron split `level` times (20 * 4^level triangles).
-fn icosphere(r: Real, level: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut v: Vec<Vec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|p| Vec3::from(*p).normalize())
-    .collect();
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..level {
-        let mut mid = std::collections::HashMap::new();
-        let mut next = Vec::new();
-        for [a, b, c] in f {
-            let mut middle = |a: u32, b: u32| {
-                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    v.push(((v[a as usize] + v[b as usize]) / 2.0).normalize());
-                    (v.len() - 1) as u32
-                })
-            };
-            let (ab, bc, ca) = (middle(a, b), middle(b, c), middle(c, a));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    (v.into_iter().map(|p| p * r).collect(), f)
 }
 
 /// The dry 50 x 50 cloth resting at height `y` on `collider`, settled.

@@ -43,6 +43,7 @@ use crate::math::{Real, RowMut, Soa, Vec3, row};
 use crate::model::Model;
 use crate::params::PressureForce;
 use crate::state::{Motion, State};
+use std::ops::Range;
 
 /// Relative residual at which the conjugate gradient stops: `|r| <= CG_TOLERANCE |b|`.
 pub const CG_TOLERANCE: Real = 1e-5;
@@ -272,14 +273,62 @@ impl SpringSet {
     }
 }
 
-/// Scratch of the implicit integrator.
+/// The springs of the 9-point stencil, one set per direction, each indexed by its spring's
+/// first index: towards +x (`right`), +z (`down`), +x+z (`diag`), and from (i+1, j) towards
+/// (i, j+1) (`anti`, indexed by (i, j)).
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Implicit {
-    /// Springs towards +x, +z, +x+z, and from (i+1, j) towards (i, j+1).
+struct Stencil {
     right: SpringSet,
     down: SpringSet,
     diag: SpringSet,
     anti: SpringSet,
+}
+
+/// A direction of [`Stencil`].
+#[derive(Clone, Copy, Debug)]
+enum Dir {
+    Right,
+    Down,
+    Diag,
+    Anti,
+}
+
+impl Stencil {
+    fn get_mut(&mut self, dir: Dir) -> &mut SpringSet {
+        match dir {
+            Dir::Right => &mut self.right,
+            Dir::Down => &mut self.down,
+            Dir::Diag => &mut self.diag,
+            Dir::Anti => &mut self.anti,
+        }
+    }
+}
+
+/// The springs of an `nx` x `nz` grid as contiguous runs of spring indices, in the order every
+/// pass over them takes (so their sums are the same every time): per row its `right` springs,
+/// then (all rows but the last) its `diag` and `anti` springs; then every `down` spring in one
+/// run. Each item: the direction, the run, and the offsets of its two particles from the
+/// spring's index.
+fn spans(nx: usize, nz: usize) -> impl Iterator<Item = (Dir, Range<usize>, usize, usize)> {
+    (0..nz)
+        .flat_map(move |j| {
+            let row = j * nx..j * nx + nx - 1;
+            let inner = (j + 1 < nz).then(|| {
+                [
+                    (Dir::Diag, row.clone(), 0, nx + 1),
+                    (Dir::Anti, row.clone(), 1, nx),
+                ]
+            });
+            std::iter::once((Dir::Right, row, 0, 1)).chain(inner.into_iter().flatten())
+        })
+        .chain(std::iter::once((Dir::Down, 0..(nz - 1) * nx, 0, nx)))
+}
+
+/// Scratch of the implicit integrator.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Implicit {
+    /// The linearised springs of the four stencil directions.
+    springs: Stencil,
     /// Forces at the start of the step (without the hands and contacts), N.
     force: Soa,
     /// Pressure force per pascal of each particle, m^2 (`S N_i`).
@@ -324,10 +373,12 @@ impl Implicit {
     pub fn new(model: &Model) -> Self {
         let n = model.grid.len();
         Self {
-            right: SpringSet::new(n),
-            down: SpringSet::new(n),
-            diag: SpringSet::new(n),
-            anti: SpringSet::new(n),
+            springs: Stencil {
+                right: SpringSet::new(n),
+                down: SpringSet::new(n),
+                diag: SpringSet::new(n),
+                anti: SpringSet::new(n),
+            },
             force: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
             regions: Regions::default(),
@@ -351,7 +402,8 @@ impl Implicit {
 
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        [&self.right, &self.down, &self.diag, &self.anti]
+        let st = &self.springs;
+        [&st.right, &st.down, &st.diag, &st.anti]
             .iter()
             .map(|s| s.heap_bytes())
             .sum::<usize>()
@@ -383,27 +435,17 @@ impl Implicit {
         for k in 0..n {
             self.force.set(k, model.gravity * model.mass(k));
         }
-        // Each direction's springs over contiguous runs of their first index (a row, or for
-        // `down` the whole grid but its last row), then their forces scattered.
-        for j in 0..nz {
-            let row = j * nx..j * nx + nx - 1;
-            self.right
-                .set_range(x, row.clone(), 0, 1, c.structural, c.rest_x);
-            self.right.scatter_range(&mut self.force, row.clone(), 0, 1);
-            if j + 1 < nz {
-                self.diag
-                    .set_range(x, row.clone(), 0, nx + 1, c.shear, c.rest_diag);
-                self.diag
-                    .scatter_range(&mut self.force, row.clone(), 0, nx + 1);
-                self.anti
-                    .set_range(x, row.clone(), 1, nx, c.shear, c.rest_diag);
-                self.anti.scatter_range(&mut self.force, row, 1, nx);
-            }
+        // Each run of springs linearised, then its forces scattered.
+        for (dir, run, oa, ob) in spans(nx, nz) {
+            let (k, l) = match dir {
+                Dir::Right => (c.structural, c.rest_x),
+                Dir::Down => (c.structural, c.rest_z),
+                Dir::Diag | Dir::Anti => (c.shear, c.rest_diag),
+            };
+            let set = self.springs.get_mut(dir);
+            set.set_range(x, run.clone(), oa, ob, k, l);
+            set.scatter_range(&mut self.force, run, oa, ob);
         }
-        let down = 0..(nz - 1) * nx;
-        self.down
-            .set_range(x, down.clone(), 0, nx, c.structural, c.rest_z);
-        self.down.scatter_range(&mut self.force, down, 0, nx);
         // The pressure force of 1 Pa on every particle: S N_i (or by area).
         if self.regions.list.is_empty() && self.regions.extra.is_empty() {
             return;
@@ -492,20 +534,11 @@ impl Implicit {
         for v in [&mut self.q.x, &mut self.q.y, &mut self.q.z] {
             v.fill(0.0);
         }
-        for j in 0..nz {
-            let row = j * nx..j * nx + nx - 1;
-            self.right.product_range(p, row.clone(), 0, 1);
-            self.right.scatter_range(&mut self.q, row.clone(), 0, 1);
-            if j + 1 < nz {
-                self.diag.product_range(p, row.clone(), 0, nx + 1);
-                self.diag.scatter_range(&mut self.q, row.clone(), 0, nx + 1);
-                self.anti.product_range(p, row.clone(), 1, nx);
-                self.anti.scatter_range(&mut self.q, row, 1, nx);
-            }
+        for (dir, run, oa, ob) in spans(nx, nz) {
+            let set = self.springs.get_mut(dir);
+            set.product_range(p, run.clone(), oa, ob);
+            set.scatter_range(&mut self.q, run, oa, ob);
         }
-        let down = 0..(nz - 1) * nx;
-        self.down.product_range(p, down.clone(), 0, nx);
-        self.down.scatter_range(&mut self.q, down, 0, nx);
         let dt2 = sys.dt2;
         for (q, p) in [
             (&mut self.q.x, &p.x),
@@ -534,29 +567,30 @@ impl Implicit {
         let (nx, nz) = (sys.nx, sys.nz);
         let (i, j) = (a % nx, a / nx);
         let pa = p.get(a);
+        let st = &self.springs;
         let mut h = Vec3::ZERO;
         if i + 1 < nx {
-            h += self.right.apply(a, pa - p.get(a + 1));
+            h += st.right.apply(a, pa - p.get(a + 1));
         }
         if i > 0 {
-            h += self.right.apply(a - 1, pa - p.get(a - 1));
+            h += st.right.apply(a - 1, pa - p.get(a - 1));
         }
         if j + 1 < nz {
-            h += self.down.apply(a, pa - p.get(a + nx));
+            h += st.down.apply(a, pa - p.get(a + nx));
             if i + 1 < nx {
-                h += self.diag.apply(a, pa - p.get(a + nx + 1));
+                h += st.diag.apply(a, pa - p.get(a + nx + 1));
             }
             if i > 0 {
-                h += self.anti.apply(a - 1, pa - p.get(a + nx - 1));
+                h += st.anti.apply(a - 1, pa - p.get(a + nx - 1));
             }
         }
         if j > 0 {
-            h += self.down.apply(a - nx, pa - p.get(a - nx));
+            h += st.down.apply(a - nx, pa - p.get(a - nx));
             if i > 0 {
-                h += self.diag.apply(a - nx - 1, pa - p.get(a - nx - 1));
+                h += st.diag.apply(a - nx - 1, pa - p.get(a - nx - 1));
             }
             if i + 1 < nx {
-                h += self.anti.apply(a - nx, pa - p.get(a - nx + 1));
+                h += st.anti.apply(a - nx, pa - p.get(a - nx + 1));
             }
         }
         let mut y = pa * self.inertia[a] + h * sys.dt2 + self.constraints[a].drag(pa);
@@ -573,15 +607,11 @@ impl Implicit {
         for v in [&mut h.x, &mut h.y, &mut h.z] {
             v.fill(0.0);
         }
-        for j in 0..nz {
-            let row = j * nx..j * nx + nx - 1;
-            self.right.diagonal_range(&mut h, row.clone(), 0, 1);
-            if j + 1 < nz {
-                self.diag.diagonal_range(&mut h, row.clone(), 0, nx + 1);
-                self.anti.diagonal_range(&mut h, row, 1, nx);
-            }
+        for (dir, run, oa, ob) in spans(nx, nz) {
+            self.springs
+                .get_mut(dir)
+                .diagonal_range(&mut h, run, oa, ob);
         }
-        self.down.diagonal_range(&mut h, 0..(nz - 1) * nx, 0, nx);
         for a in 0..nx * nz {
             let mut d = Vec3::splat(self.inertia[a]) + h.get(a) * sys.dt2;
             if let Some(r) = sys.regions.of(a) {
@@ -845,21 +875,18 @@ impl Implicit {
         // Friction, the move, and any contact the solve did not foresee.
         let mut moved: Real = 0.0;
         let single_still = model.colliders.len() == 1 && model.moving.is_empty();
-        let mut volume_change = vec![0.0; self.regions.list.len()];
+        // The thesis' bubble's volume change over the step, m^3 (its pressure below).
+        let bubble = matches!(air.model, crate::air::AirModel::Thesis(_));
+        let mut volume_change = 0.0;
         for k in 0..n {
             let x = state.x.get(k);
             let v = self.v.get(k);
             let mut touched = false;
-            match self.constraints[k] {
-                Constraint::Normal { n: normal, .. } => {
-                    let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
-                    touched = push > 0.0;
-                }
-                Constraint::Stick { n: normal, .. } => {
-                    let push = (self.q.get(k) - self.rhs.get(k)).dot(normal);
-                    touched = push > 0.0;
-                }
-                _ => {}
+            if let Constraint::Normal { n: normal, .. } | Constraint::Stick { n: normal, .. } =
+                self.constraints[k]
+            {
+                // Touching while the surface pushes.
+                touched = (self.q.get(k) - self.rhs.get(k)).dot(normal) > 0.0;
             }
             let mut to = x + v * dt;
             if let Constraint::Fixed(_) = self.constraints[k] {
@@ -886,8 +913,8 @@ impl Implicit {
                     moved = moved.max((to - reference.get(k)).length_squared());
                 }
             }
-            if let Some(r) = self.regions.of(k) {
-                volume_change[r] += self.per_pascal.get(k).dot(to - x);
+            if bubble && self.regions.of(k).is_some() {
+                volume_change += self.per_pascal.get(k).dot(to - x);
             }
             state.contact[k] = touched;
             prev.set(k, to);
@@ -899,7 +926,7 @@ impl Implicit {
             && let Some(r) = self.regions.list.first()
         {
             b.applied_pressure = if implicit_air {
-                (r.pressure - r.stiffness * volume_change[0]).max(0.0)
+                (r.pressure - r.stiffness * volume_change).max(0.0)
             } else {
                 r.pressure
             };
