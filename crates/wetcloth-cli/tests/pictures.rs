@@ -3,62 +3,15 @@
 //! graphics adapter: on a machine without a GPU, Mesa's software Vulkan (`mesa-vulkan-drivers`),
 //! which `.ci/run` installs.
 
-use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
-const BIN: &str = env!("CARGO_BIN_EXE_wetcloth");
+mod common;
 
-/// A 12 x 12 cloth with 400 cm^3-per-0.09 m^2 of air, its centre lifted 4 cm: a clear tent.
-const TENT: &str = r#"
-name = "tent"
-[simulation]
-duration = 0.3
-frame_rate = 10
-[cloth]
-resolution = [12, 12]
-position = [0.0, 0.0052, 0.0]
-damping = 2.0
-self_collision = false
-[air]
-trapped_air = 400e-6
-[[grab]]
-particle = [6, 6]
-keys = [{ time = 0.0, offset = [0, 0, 0] }, { time = 0.25, offset = [0, 0.04, 0] }]
-"#;
+use common::{BIN, TENT, png_size_and_pixels, run_scene};
 
 fn tent_run(test: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("cli-pictures")
-        .join(test);
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
-    let scene = dir.join("tent.toml");
-    fs::write(&scene, TENT).unwrap();
-    let run = dir.join("run");
-    let o = Command::new(BIN)
-        .arg("run")
-        .arg(&scene)
-        .arg("--out")
-        .arg(&run)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    run
-}
-
-fn png_size_and_pixels(path: &Path) -> (u32, u32, Vec<[u8; 3]>) {
-    let decoder = png::Decoder::new(std::io::BufReader::new(fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    let channels = info.color_type.samples();
-    let px = buf[..info.buffer_size()]
-        .chunks(channels)
-        .map(|c| [c[0], c[1], c[2]])
-        .collect();
-    (info.width, info.height, px)
+    run_scene("cli-pictures", test, TENT)
 }
 
 #[test]

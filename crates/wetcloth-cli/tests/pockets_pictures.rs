@@ -9,7 +9,9 @@ use std::process::Command;
 
 use wetcloth_export::{NO_POCKET, parse_pocket_labels};
 
-const BIN: &str = env!("CARGO_BIN_EXE_wetcloth");
+mod common;
+
+use common::{BIN, TENT, png_size_and_pixels as pixels, run_into};
 
 /// Two seeded pockets under a wet cloth, left (x = -0.07 m) and right (x = +0.07 m) of the
 /// centre: each inflates to a little above atmospheric pressure and stays.
@@ -43,44 +45,8 @@ normal = [0.0, 1.0, 0.0]
 friction = 0.6
 "#;
 
-/// The thesis model: a 12 x 12 cloth with air under it, its centre lifted (the bubble is
-/// below atmospheric pressure).
-const TENT: &str = r#"
-name = "tent"
-[simulation]
-duration = 0.3
-frame_rate = 10
-[cloth]
-resolution = [12, 12]
-position = [0.0, 0.0052, 0.0]
-damping = 2.0
-self_collision = false
-[air]
-trapped_air = 400e-6
-[[grab]]
-particle = [6, 6]
-keys = [{ time = 0.0, offset = [0, 0, 0] }, { time = 0.25, offset = [0, 0.04, 0] }]
-"#;
-
 fn run_scene(test: &str, scene_text: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("cli-pockets-pictures")
-        .join(test);
-    let _ = fs::remove_dir_all(&dir);
-    fs::create_dir_all(&dir).unwrap();
-    let scene = dir.join("scene.toml");
-    fs::write(&scene, scene_text).unwrap();
-    let run = dir.join("run");
-    let o = Command::new(BIN)
-        .arg("run")
-        .arg(&scene)
-        .arg("--out")
-        .arg(&run)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    run
+    common::run_scene("cli-pockets-pictures", test, scene_text)
 }
 
 /// `pockets.csv` rows: (frame, pocket, pressure, particles).
@@ -117,19 +83,6 @@ fn render(run: &Path, out: &str, extra: &[&str]) -> std::process::Output {
         .args(extra)
         .output()
         .unwrap()
-}
-
-fn pixels(path: &Path) -> (u32, u32, Vec<[u8; 3]>) {
-    let decoder = png::Decoder::new(std::io::BufReader::new(fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    let channels = info.color_type.samples();
-    let px = buf[..info.buffer_size()]
-        .chunks(channels)
-        .map(|c| [c[0], c[1], c[2]])
-        .collect();
-    (info.width, info.height, px)
 }
 
 fn is_red(p: [u8; 3]) -> bool {
@@ -174,15 +127,7 @@ fn pocket_labels_are_written_per_frame_and_agree_with_pockets_csv() {
     // A rerun with the thesis model in the same folder leaves no label files behind.
     let scene = run.parent().unwrap().join("thesis.toml");
     fs::write(&scene, TENT).unwrap();
-    let o = Command::new(BIN)
-        .arg("run")
-        .arg(&scene)
-        .arg("--out")
-        .arg(&run)
-        .arg("--quiet")
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_into(&scene, &run);
     let stale = fs::read_dir(run.join("frames"))
         .unwrap()
         .filter(|e| {
