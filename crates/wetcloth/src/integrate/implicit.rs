@@ -16,7 +16,12 @@
 //! its particles (`S N_i`, eq. 3.7; `dV/dx_i` as the thesis spreads it). The system matrix is
 //! symmetric positive definite; the conjugate gradient applies it row by row (the springs of
 //! each particle's 8 neighbours, then one dot product per region for the rank-one terms), never
-//! forming it, preconditioned by its diagonal.
+//! forming it. Its preconditioner is the diagonal where most particles are held (a cloth
+//! pressed onto the table: the solve runs over the free ones alone), and where most of a cloth
+//! of at least 400 particles is free, a multigrid V-cycle on the grid
+//! ([`super::multigrid`]) for the springs, with the gas springs' rank-one terms added to its
+//! inverse by the Woodbury identity: `M^-1 = V - W (C^-1 + U^T W)^-1 W^T`, `W = V U`, `U`
+//! the regions' filtered `g_r`, `C` their `dt^2 k_r`.
 //!
 //! Constraints are filtered out of the solve (Baraff and Witkin 1998): a particle a hand holds
 //! has its velocity fixed to reach the hand's target; a particle touching a collider has its
@@ -32,6 +37,7 @@
 //! Every sum (the dot products of the gradient, the regions' dot products) runs over the
 //! particles in index order, so the result does not depend on the thread count.
 
+use super::multigrid::{CENTRE, Multigrid, slot};
 use super::{Air, Fused};
 use crate::air::Timing;
 use crate::air::region::Regions;
@@ -43,6 +49,7 @@ use crate::math::{Real, RowMut, Soa, Vec3, row};
 use crate::model::Model;
 use crate::params::PressureForce;
 use crate::state::{Motion, State};
+use glam::DMat3;
 use std::ops::Range;
 
 /// Relative residual at which the conjugate gradient stops: `|r| <= CG_TOLERANCE |b|`.
@@ -354,6 +361,14 @@ pub(crate) struct Implicit {
     /// Inverse of the diagonal of the system matrix, and the diagonal without friction drag.
     inv_diag: Soa,
     diag_base: Soa,
+    /// The multigrid preconditioner (when in use) and, for the gas springs, the low-rank
+    /// correction of its inverse (Woodbury): `w_r = V u_r` for each gas region's filtered
+    /// pressure gradient `u_r`, and the Cholesky factor of `C^-1 + U^T V U`.
+    mg: Multigrid,
+    use_multigrid: bool,
+    gas_u: Vec<(usize, Soa)>,
+    gas_w: Vec<Soa>,
+    gas_chol: Vec<Real>,
     /// Conjugate-gradient iterations of the last step (all solves), and of every step since
     /// this scratch was made.
     pub iterations: usize,
@@ -395,6 +410,11 @@ impl Implicit {
             q: Soa::zeros(n),
             inv_diag: Soa::zeros(n),
             diag_base: Soa::zeros(n),
+            mg: Multigrid::default(),
+            use_multigrid: false,
+            gas_u: Vec::new(),
+            gas_w: Vec::new(),
+            gas_chol: Vec::new(),
             iterations: 0,
             total_iterations: 0,
         }
@@ -422,6 +442,13 @@ impl Implicit {
             .iter()
             .map(|s| s.heap_bytes())
             .sum::<usize>()
+            + self.mg.heap_bytes()
+            + self.gas_w.iter().map(|s| s.heap_bytes()).sum::<usize>()
+            + self
+                .gas_u
+                .iter()
+                .map(|(_, s)| s.heap_bytes())
+                .sum::<usize>()
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
             + self.inertia.capacity() * 8
     }
@@ -634,6 +661,196 @@ impl Implicit {
         self.inv_diag.set(k, Vec3::ONE / d);
     }
 
+    /// `z = M^-1 r` on the active particles: the diagonal, or the multigrid V-cycle with the
+    /// gas springs' Woodbury correction, filtered.
+    fn precondition_residual(&mut self, active: &[u32]) {
+        if !self.use_multigrid {
+            for &k in active {
+                let k = k as usize;
+                let z = self.constraints[k].filter(self.r.get(k) * self.inv_diag.get(k));
+                self.z.set(k, z);
+            }
+            return;
+        }
+        let (r, z, constraints) = (&self.r, &mut self.z, &self.constraints);
+        let free =
+            |k: usize| matches!(constraints[k], Constraint::Free | Constraint::Normal { .. });
+        self.mg.apply(
+            |k| if free(k) { r.get(k) } else { Vec3::ZERO },
+            |k, x| z.set(k, constraints[k].filter(x)),
+        );
+        if self.gas_w.is_empty() {
+            return;
+        }
+        // z -= W G^-1 W^T r.
+        let m = self.gas_w.len();
+        let mut y: Vec<Real> = self
+            .gas_w
+            .iter()
+            .map(|w| {
+                active
+                    .iter()
+                    .map(|&k| w.get(k as usize).dot(r.get(k as usize)))
+                    .sum()
+            })
+            .collect();
+        cholesky_solve(&self.gas_chol, m, &mut y);
+        for &k in active {
+            let k = k as usize;
+            let mut c = z.get(k);
+            for (w, y) in self.gas_w.iter().zip(&y) {
+                c -= w.get(k) * *y;
+            }
+            z.set(k, c);
+        }
+    }
+
+    /// The multigrid hierarchy of the filtered system matrix (without the gas springs'
+    /// rank-one terms), and their Woodbury correction.
+    fn build_multigrid(&mut self, sys: &System<'_>) {
+        let (nx, nz) = (sys.nx, sys.nz);
+        let dt2 = sys.dt2;
+        let blocks = self.mg.fine(nx, nz);
+        for (dir, run, oa, ob) in spans(nx, nz) {
+            let (sa, sb) = match dir {
+                Dir::Right => (slot(1, 0), slot(-1, 0)),
+                Dir::Down => (slot(0, 1), slot(0, -1)),
+                Dir::Diag => (slot(1, 1), slot(-1, -1)),
+                Dir::Anti => (slot(-1, 1), slot(1, -1)),
+            };
+            let set = match dir {
+                Dir::Right => &self.springs.right,
+                Dir::Down => &self.springs.down,
+                Dir::Diag => &self.springs.diag,
+                Dir::Anti => &self.springs.anti,
+            };
+            for e in run {
+                let d = set.d.get(e);
+                let h = (DMat3::from_diagonal(Vec3::splat(set.ks[e]))
+                    + DMat3::from_cols(d * d.x, d * d.y, d * d.z) * set.kd[e])
+                    * dt2;
+                let (a, b) = (e + oa, e + ob);
+                blocks[a][CENTRE] += h;
+                blocks[b][CENTRE] += h;
+                blocks[a][sa] -= h;
+                blocks[b][sb] -= h;
+            }
+        }
+        let proj = |c: Constraint| match c {
+            Constraint::Free => DMat3::IDENTITY,
+            Constraint::Normal { n, .. } => {
+                DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z)
+            }
+            Constraint::Stick { .. } | Constraint::Fixed(_) => DMat3::ZERO,
+        };
+        for a in 0..nx * nz {
+            let c = self.constraints[a];
+            let (i, j) = (a % nx, a / nx);
+            let sa = proj(c);
+            let mut centre = blocks[a][CENTRE] + DMat3::from_diagonal(Vec3::splat(self.inertia[a]));
+            if let Constraint::Normal { n, drag, .. } = c {
+                centre += (DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z)) * drag;
+            }
+            if c == Constraint::Free {
+                blocks[a][CENTRE] = centre;
+                // Off-diagonal blocks: S_a A_ab S_b, with S_a the identity.
+                for dj in -1isize..=1 {
+                    for di in -1isize..=1 {
+                        let (ii, jj) = (i as isize + di, j as isize + dj);
+                        if (di, dj) == (0, 0)
+                            || ii < 0
+                            || jj < 0
+                            || ii >= nx as isize
+                            || jj >= nz as isize
+                        {
+                            continue;
+                        }
+                        let cb = self.constraints[jj as usize * nx + ii as usize];
+                        if cb != Constraint::Free {
+                            let s = slot(di, dj);
+                            blocks[a][s] *= proj(cb);
+                        }
+                    }
+                }
+                continue;
+            }
+            // A constrained direction keeps only its own diagonal (the solve never sees it).
+            let scale = (centre.x_axis.x + centre.y_axis.y + centre.z_axis.z) / 3.0;
+            blocks[a][CENTRE] = sa * centre * sa + (DMat3::IDENTITY - sa) * scale;
+            for dj in -1isize..=1 {
+                for di in -1isize..=1 {
+                    let (ii, jj) = (i as isize + di, j as isize + dj);
+                    if (di, dj) == (0, 0)
+                        || ii < 0
+                        || jj < 0
+                        || ii >= nx as isize
+                        || jj >= nz as isize
+                    {
+                        continue;
+                    }
+                    let s = slot(di, dj);
+                    let sb = proj(self.constraints[jj as usize * nx + ii as usize]);
+                    blocks[a][s] = sa * blocks[a][s] * sb;
+                }
+            }
+        }
+        self.mg.build();
+        // The gas springs: u_r = S g_r over the region, w_r = S V u_r, and the Cholesky
+        // factor of G = diag(1 / (dt^2 k_r)) + U^T W.
+        let n = nx * nz;
+        let gas: Vec<(usize, Real)> = self
+            .gas
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|&(_, g)| g > 0.0)
+            .take(MAX_GAS_CORRECTIONS)
+            .collect();
+        self.gas_u.truncate(gas.len());
+        self.gas_w.truncate(gas.len());
+        while self.gas_u.len() < gas.len() {
+            self.gas_u.push((0, Soa::zeros(n)));
+            self.gas_w.push(Soa::zeros(n));
+        }
+        for (slot_r, &(r, _)) in gas.iter().enumerate() {
+            let (region, u) = &mut self.gas_u[slot_r];
+            *region = r;
+            if u.len() != n {
+                *u = Soa::zeros(n);
+            }
+            for k in 0..n {
+                let g = if sys.regions.of(k) == Some(r) {
+                    self.constraints[k].filter(self.per_pascal.get(k))
+                } else {
+                    Vec3::ZERO
+                };
+                u.set(k, g);
+            }
+            let w = &mut self.gas_w[slot_r];
+            if w.len() != n {
+                *w = Soa::zeros(n);
+            }
+            let constraints = &self.constraints;
+            self.mg
+                .apply(|k| u.get(k), |k, x| w.set(k, constraints[k].filter(x)));
+        }
+        let m = gas.len();
+        self.gas_chol.clear();
+        self.gas_chol.resize(m * m, 0.0);
+        for a in 0..m {
+            for b in 0..m {
+                let (_, u) = &self.gas_u[a];
+                let w = &self.gas_w[b];
+                let mut dot = 0.0;
+                for k in 0..n {
+                    dot += u.get(k).dot(w.get(k));
+                }
+                self.gas_chol[a * m + b] = dot + if a == b { 1.0 / gas[a].1 } else { 0.0 };
+            }
+        }
+        cholesky(&mut self.gas_chol, m);
+    }
+
     /// Solves `A v = rhs` for the free directions, the constrained ones fixed at their values,
     /// by the filtered, preconditioned conjugate gradient from the current `v`. Returns the
     /// iterations taken.
@@ -665,11 +882,20 @@ impl Implicit {
             bb += b.length_squared();
             let r = c.filter(self.rhs.get(k) - self.q.get(k));
             self.r.set(k, r);
-            let z = c.filter(r * self.inv_diag.get(k));
-            self.z.set(k, z);
-            self.p.set(k, z);
-            rz += r.dot(z);
             rr += r.length_squared();
+        }
+        // The V-cycle runs over the whole grid, the diagonal over the free particles alone: the
+        // multigrid pays where most of a large cloth is free.
+        self.use_multigrid = n >= MULTIGRID_MIN_PARTICLES && 2 * active.len() >= n;
+        if self.use_multigrid {
+            self.build_multigrid(sys);
+        }
+        self.precondition_residual(&active);
+        for &k in &active {
+            let k = k as usize;
+            let z = self.z.get(k);
+            self.p.set(k, z);
+            rz += self.r.get(k).dot(z);
         }
         let goal = CG_TOLERANCE * CG_TOLERANCE * bb.max(Real::MIN_POSITIVE);
         let mut it = 0;
@@ -692,10 +918,12 @@ impl Implicit {
                 self.v.set(k, self.v.get(k) + self.p.get(k) * alpha);
                 let r = self.r.get(k) - self.q.get(k) * alpha;
                 self.r.set(k, r);
-                let z = self.constraints[k].filter(r * self.inv_diag.get(k));
-                self.z.set(k, z);
-                rz_new += r.dot(z);
                 rr_new += r.length_squared();
+            }
+            self.precondition_residual(&active);
+            for &k in &active {
+                let k = k as usize;
+                rz_new += self.r.get(k).dot(self.z.get(k));
             }
             let beta = rz_new / rz;
             for &k in &active {
@@ -939,6 +1167,52 @@ impl Implicit {
             fused.rows_per_task,
         );
         moved
+    }
+}
+
+/// Fewest particles for the multigrid preconditioner (below, the diagonal is as fast).
+const MULTIGRID_MIN_PARTICLES: usize = 400;
+
+/// Most gas regions whose rank-one term the multigrid preconditioner corrects for (Woodbury);
+/// the others are left to the conjugate gradient.
+const MAX_GAS_CORRECTIONS: usize = 8;
+
+/// In-place dense Cholesky factorisation (lower, row-major) of the `m` x `m` matrix `c`; a
+/// pivot that is not positive is replaced by the diagonal's magnitude.
+fn cholesky(c: &mut [Real], m: usize) {
+    for k in 0..m {
+        let mut d = c[k * m + k];
+        for t in 0..k {
+            d -= c[k * m + t] * c[k * m + t];
+        }
+        let scale = c[k * m + k].abs().max(Real::MIN_POSITIVE);
+        let d = if d > 1e-14 * scale { d } else { scale }.sqrt();
+        c[k * m + k] = d;
+        for r in k + 1..m {
+            let mut s = c[r * m + k];
+            for t in 0..k {
+                s -= c[r * m + t] * c[k * m + t];
+            }
+            c[r * m + k] = s / d;
+        }
+    }
+}
+
+/// Solves `L L^T y = b` in place, with `L` from [`cholesky`].
+fn cholesky_solve(c: &[Real], m: usize, y: &mut [Real]) {
+    for k in 0..m {
+        let mut s = y[k];
+        for t in 0..k {
+            s -= c[k * m + t] * y[t];
+        }
+        y[k] = s / c[k * m + k];
+    }
+    for k in (0..m).rev() {
+        let mut s = y[k];
+        for t in k + 1..m {
+            s -= c[t * m + k] * y[t];
+        }
+        y[k] = s / c[k * m + k];
     }
 }
 

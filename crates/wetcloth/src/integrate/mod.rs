@@ -16,6 +16,7 @@
 //! name) and of `IntegratorState`; it must pass the scenario table of `tests/physics.rs`.
 
 pub(crate) mod implicit;
+pub(crate) mod multigrid;
 pub(crate) mod verlet;
 
 use crate::air::{AirModel, Timing};

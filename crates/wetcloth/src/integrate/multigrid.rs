@@ -1,0 +1,537 @@
+//! A geometric multigrid V-cycle on the cloth's grid: the implicit integrator's preconditioner.
+//!
+//! The implicit step's matrix couples each particle to its 8 grid neighbours through 3 x 3
+//! blocks (the linearised springs, eq. 3.6), so it is a block 9-point stencil on the `nx` x
+//! `nz` grid. Its stiffness relative to the mass, `dt^2 k / m`, is 4e4 on the thesis' cloth at
+//! 1/120 s: smooth stretching modes then converge slowly under a diagonal preconditioner
+//! (hundreds of iterations a solve). A V-cycle removes them on coarser grids.
+//!
+//! - **Coarse grids.** Every other node in each direction (`n` nodes become `ceil(n / 2)`),
+//!   until both sides have at most [`COARSEST_SIDE`] nodes. Interpolation is bilinear (the
+//!   coarse nodes are the even fine ones and the last one; linear in between, so that rigid
+//!   rotations are represented exactly), restriction its transpose,
+//!   and each coarse matrix the Galerkin product `P^T A P`, which is again a block 9-point
+//!   stencil: no geometry is needed below the finest grid, and every coarse matrix is
+//!   symmetric positive definite when the fine one is.
+//! - **Smoother.** Block Gauss-Seidel (each node's 3 x 3 block solved exactly), one sweep
+//!   forwards before the coarse correction and one backwards after it, so the cycle is a
+//!   symmetric operator and a valid conjugate-gradient preconditioner.
+//! - **Coarsest grid.** Solved exactly by a dense Cholesky factorisation (at most 48 unknowns).
+//!
+//! Everything runs in node order on one thread: the same bits for any thread count.
+
+use crate::math::{Real, Vec3};
+use glam::DMat3;
+
+/// Largest side, in nodes, of the coarsest grid (solved directly).
+pub const COARSEST_SIDE: usize = 4;
+
+/// Stencil slot of the neighbour at grid offset `(di, dj)`, each in `-1..=1`.
+#[inline(always)]
+pub const fn slot(di: isize, dj: isize) -> usize {
+    ((dj + 1) * 3 + (di + 1)) as usize
+}
+
+/// The centre slot (the node's own block).
+pub const CENTRE: usize = slot(0, 0);
+
+/// One grid's matrix and work vectors.
+#[derive(Clone, Debug, Default)]
+struct Level {
+    nx: usize,
+    nz: usize,
+    /// Per node, its 9 blocks: `a[node][slot(di, dj)]` couples it to node `(i + di, j + dj)`.
+    a: Vec<[DMat3; 9]>,
+    /// Inverse of each node's own block.
+    inv: Vec<DMat3>,
+    /// Solution, right-hand side and residual.
+    x: Vec<Vec3>,
+    b: Vec<Vec3>,
+    r: Vec<Vec3>,
+}
+
+impl Level {
+    fn resize(&mut self, nx: usize, nz: usize) {
+        let n = nx * nz;
+        self.nx = nx;
+        self.nz = nz;
+        self.a.clear();
+        self.a.resize(n, [DMat3::ZERO; 9]);
+        self.inv.resize(n, DMat3::IDENTITY);
+        self.x.resize(n, Vec3::ZERO);
+        self.b.resize(n, Vec3::ZERO);
+        self.r.resize(n, Vec3::ZERO);
+    }
+
+    /// `sum over the neighbours of a (not a itself) of A_ab x_b`.
+    #[inline(always)]
+    fn off_diagonal(&self, a: usize) -> Vec3 {
+        let (nx, nz) = (self.nx, self.nz);
+        let (i, j) = (a % nx, a / nx);
+        let blocks = &self.a[a];
+        if i > 0 && j > 0 && i + 1 < nx && j + 1 < nz {
+            // An inner node: all 8 neighbours, rows j - 1, j, j + 1 as slices.
+            let (up, mid, down) = (
+                &self.x[a - nx - 1..a - nx + 2],
+                &self.x[a - 1..a + 2],
+                &self.x[a + nx - 1..a + nx + 2],
+            );
+            return blocks[0] * up[0]
+                + blocks[1] * up[1]
+                + blocks[2] * up[2]
+                + blocks[3] * mid[0]
+                + blocks[5] * mid[2]
+                + blocks[6] * down[0]
+                + blocks[7] * down[1]
+                + blocks[8] * down[2];
+        }
+        let mut s = Vec3::ZERO;
+        for dj in -1isize..=1 {
+            let jj = j as isize + dj;
+            if jj < 0 || jj >= nz as isize {
+                continue;
+            }
+            for di in -1isize..=1 {
+                let ii = i as isize + di;
+                if (di == 0 && dj == 0) || ii < 0 || ii >= nx as isize {
+                    continue;
+                }
+                s += blocks[slot(di, dj)] * self.x[jj as usize * nx + ii as usize];
+            }
+        }
+        s
+    }
+
+    /// One Gauss-Seidel sweep, forwards or backwards.
+    fn sweep(&mut self, forwards: bool) {
+        let n = self.nx * self.nz;
+        for t in 0..n {
+            let a = if forwards { t } else { n - 1 - t };
+            let s = self.b[a] - self.off_diagonal(a);
+            self.x[a] = self.inv[a] * s;
+        }
+    }
+
+    /// `r = b - A x`.
+    fn residual(&mut self) {
+        for a in 0..self.nx * self.nz {
+            let ax = self.a[a][CENTRE] * self.x[a] + self.off_diagonal(a);
+            self.r[a] = self.b[a] - ax;
+        }
+    }
+}
+
+/// The coarse nodes (and weights) a fine node interpolates from, along one side of `n` fine
+/// nodes, linearly: the coarse nodes are the even fine ones and the last one (on an even side
+/// the last two coarse nodes are three apart instead of two), so every linear function, a
+/// rigid rotation's displacement included, is represented exactly. A side of at most
+/// [`COARSEST_SIDE`] nodes is not coarsened.
+#[inline]
+fn parents(i: usize, n: usize) -> ([(usize, Real); 2], usize) {
+    const ONE: [(usize, Real); 2] = [(0, 1.0), (0, 0.0)];
+    if n <= COARSEST_SIDE {
+        return ([(i, 1.0), ONE[1]], 1);
+    }
+    let last = n.div_ceil(2) - 1;
+    if n.is_multiple_of(2) && i + 3 >= n {
+        // The last interval, fine nodes n - 4 .. n - 1.
+        return match n - 1 - i {
+            0 => ([(last, 1.0), ONE[1]], 1),
+            1 => ([(last - 1, 1.0 / 3.0), (last, 2.0 / 3.0)], 2),
+            _ => ([(last - 1, 2.0 / 3.0), (last, 1.0 / 3.0)], 2),
+        };
+    }
+    if i.is_multiple_of(2) {
+        ([(i / 2, 1.0), ONE[1]], 1)
+    } else {
+        ([(i / 2, 0.5), (i / 2 + 1, 0.5)], 2)
+    }
+}
+
+/// Coarse side for `n` fine nodes.
+#[inline]
+fn coarse_side(n: usize) -> usize {
+    if n <= COARSEST_SIDE { n } else { n.div_ceil(2) }
+}
+
+/// The multigrid hierarchy of one matrix.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Multigrid {
+    levels: Vec<Level>,
+    /// Dense Cholesky factor (lower, row-major) of the coarsest matrix, `m` x `m`.
+    chol: Vec<Real>,
+    m: usize,
+}
+
+impl Multigrid {
+    /// The finest grid's blocks, zeroed, for the caller to fill (`a[node][slot]`), for an
+    /// `nx` x `nz` grid. Call [`Multigrid::build`] after.
+    pub fn fine(&mut self, nx: usize, nz: usize) -> &mut [[DMat3; 9]] {
+        if self.levels.is_empty() {
+            self.levels.push(Level::default());
+        }
+        self.levels[0].resize(nx, nz);
+        &mut self.levels[0].a
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.levels
+            .iter()
+            .map(|l| {
+                l.a.capacity() * std::mem::size_of::<[DMat3; 9]>()
+                    + l.inv.capacity() * std::mem::size_of::<DMat3>()
+                    + (l.x.capacity() + l.b.capacity() + l.r.capacity())
+                        * std::mem::size_of::<Vec3>()
+            })
+            .sum::<usize>()
+            + self.chol.capacity() * 8
+    }
+
+    /// Builds the coarse grids from the finest one's blocks, and factors the coarsest.
+    pub fn build(&mut self) {
+        let mut l = 0;
+        loop {
+            let (nx, nz) = (self.levels[l].nx, self.levels[l].nz);
+            invert_diagonal(&mut self.levels[l]);
+            if nx <= COARSEST_SIDE && nz <= COARSEST_SIDE {
+                break;
+            }
+            if self.levels.len() == l + 1 {
+                self.levels.push(Level::default());
+            }
+            let (fine, rest) = self.levels.split_at_mut(l + 1);
+            galerkin(&fine[l], &mut rest[0]);
+            l += 1;
+        }
+        self.levels.truncate(l + 1);
+        self.factor_coarsest();
+    }
+
+    /// `x = V b`: one symmetric V-cycle from `x = 0`. `b` and `x` are per node of the finest
+    /// grid.
+    pub fn apply(&mut self, b: impl Fn(usize) -> Vec3, mut x: impl FnMut(usize, Vec3)) {
+        let n = self.levels[0].nx * self.levels[0].nz;
+        for a in 0..n {
+            self.levels[0].b[a] = b(a);
+        }
+        self.cycle(0);
+        for a in 0..n {
+            x(a, self.levels[0].x[a]);
+        }
+    }
+
+    fn cycle(&mut self, l: usize) {
+        if l + 1 == self.levels.len() {
+            self.solve_coarsest();
+            return;
+        }
+        {
+            let lv = &mut self.levels[l];
+            lv.x.fill(Vec3::ZERO);
+            lv.sweep(true);
+            lv.residual();
+        }
+        let (fine, rest) = self.levels.split_at_mut(l + 1);
+        let (f, c) = (&fine[l], &mut rest[0]);
+        // Restriction: b_c = P^T r.
+        c.b.fill(Vec3::ZERO);
+        for j in 0..f.nz {
+            let (pz, nzp) = parents(j, f.nz);
+            for i in 0..f.nx {
+                let (px, nxp) = parents(i, f.nx);
+                let r = f.r[j * f.nx + i];
+                for &(jc, wz) in &pz[..nzp] {
+                    for &(ic, wx) in &px[..nxp] {
+                        c.b[jc * c.nx + ic] += r * (wx * wz);
+                    }
+                }
+            }
+        }
+        self.cycle(l + 1);
+        let (fine, rest) = self.levels.split_at_mut(l + 1);
+        let (f, c) = (&mut fine[l], &rest[0]);
+        // Prolongation: x += P x_c.
+        for j in 0..f.nz {
+            let (pz, nzp) = parents(j, f.nz);
+            for i in 0..f.nx {
+                let (px, nxp) = parents(i, f.nx);
+                let mut e = Vec3::ZERO;
+                for &(jc, wz) in &pz[..nzp] {
+                    for &(ic, wx) in &px[..nxp] {
+                        e += c.x[jc * c.nx + ic] * (wx * wz);
+                    }
+                }
+                f.x[j * f.nx + i] += e;
+            }
+        }
+        f.sweep(false);
+    }
+
+    fn factor_coarsest(&mut self) {
+        let lv = self.levels.last().expect("built");
+        let n = lv.nx * lv.nz;
+        let m = 3 * n;
+        self.m = m;
+        self.chol.clear();
+        self.chol.resize(m * m, 0.0);
+        let c = &mut self.chol;
+        // The dense matrix from the blocks.
+        for a in 0..n {
+            let (i, j) = (a % lv.nx, a / lv.nx);
+            for dj in -1isize..=1 {
+                for di in -1isize..=1 {
+                    let (ii, jj) = (i as isize + di, j as isize + dj);
+                    if ii < 0 || jj < 0 || ii >= lv.nx as isize || jj >= lv.nz as isize {
+                        continue;
+                    }
+                    let b = jj as usize * lv.nx + ii as usize;
+                    let blk = lv.a[a][slot(di, dj)];
+                    for r in 0..3 {
+                        for s in 0..3 {
+                            c[(3 * a + r) * m + 3 * b + s] = blk.col(s)[r];
+                        }
+                    }
+                }
+            }
+        }
+        // In-place Cholesky, lower triangle.
+        for k in 0..m {
+            let mut d = c[k * m + k];
+            for t in 0..k {
+                d -= c[k * m + t] * c[k * m + t];
+            }
+            let scale = c[k * m + k].abs().max(Real::MIN_POSITIVE);
+            let d = if d > 1e-14 * scale { d } else { scale };
+            let d = d.sqrt();
+            c[k * m + k] = d;
+            for r in k + 1..m {
+                let mut s = c[r * m + k];
+                for t in 0..k {
+                    s -= c[r * m + t] * c[k * m + t];
+                }
+                c[r * m + k] = s / d;
+            }
+        }
+    }
+
+    fn solve_coarsest(&mut self) {
+        let m = self.m;
+        let c = &self.chol;
+        let lv = self.levels.last_mut().expect("built");
+        let mut y = vec![0.0; m];
+        for k in 0..m {
+            let mut s = lv.b[k / 3][k % 3];
+            for t in 0..k {
+                s -= c[k * m + t] * y[t];
+            }
+            y[k] = s / c[k * m + k];
+        }
+        for k in (0..m).rev() {
+            let mut s = y[k];
+            for t in k + 1..m {
+                s -= c[t * m + k] * y[t];
+            }
+            y[k] = s / c[k * m + k];
+        }
+        for (a, x) in lv.x.iter_mut().enumerate() {
+            *x = Vec3::new(y[3 * a], y[3 * a + 1], y[3 * a + 2]);
+        }
+    }
+}
+
+/// Inverts every node's own block (symmetric positive definite; a singular or non-finite one
+/// falls back to its diagonal).
+fn invert_diagonal(lv: &mut Level) {
+    for (inv, blocks) in lv.inv.iter_mut().zip(&lv.a) {
+        let d = blocks[CENTRE];
+        let det = d.determinant();
+        let scale = d.x_axis.x.abs() * d.y_axis.y.abs() * d.z_axis.z.abs();
+        *inv = if det.is_finite() && det > 1e-12 * scale {
+            d.inverse()
+        } else {
+            let safe = |v: Real| if v > 0.0 { 1.0 / v } else { 0.0 };
+            DMat3::from_diagonal(Vec3::new(
+                safe(d.x_axis.x),
+                safe(d.y_axis.y),
+                safe(d.z_axis.z),
+            ))
+        };
+    }
+}
+
+/// `coarse = P^T fine P` (bilinear `P`).
+fn galerkin(fine: &Level, coarse: &mut Level) {
+    let (nx, nz) = (fine.nx, fine.nz);
+    coarse.resize(coarse_side(nx), coarse_side(nz));
+    let cnx = coarse.nx;
+    for j in 0..nz {
+        let (pzj, nzj) = parents(j, nz);
+        for i in 0..nx {
+            let (pxi, nxi) = parents(i, nx);
+            let a = j * nx + i;
+            for dj in -1isize..=1 {
+                let jj = j as isize + dj;
+                if jj < 0 || jj >= nz as isize {
+                    continue;
+                }
+                let (pzb, nzb) = parents(jj as usize, nz);
+                for di in -1isize..=1 {
+                    let ii = i as isize + di;
+                    if ii < 0 || ii >= nx as isize {
+                        continue;
+                    }
+                    let blk = fine.a[a][slot(di, dj)];
+                    if blk == DMat3::ZERO {
+                        continue;
+                    }
+                    let (pxb, nxb) = parents(ii as usize, nx);
+                    for &(ja, wza) in &pzj[..nzj] {
+                        for &(ia, wxa) in &pxi[..nxi] {
+                            let wa = wza * wxa;
+                            let row = &mut coarse.a[ja * cnx + ia];
+                            for &(jb, wzb) in &pzb[..nzb] {
+                                for &(ib, wxb) in &pxb[..nxb] {
+                                    let s =
+                                        slot(ib as isize - ia as isize, jb as isize - ja as isize);
+                                    row[s] += blk * (wa * wzb * wxb);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A block 9-point SPD matrix on an `nx` x `nz` grid: springs to the 8 neighbours with
+    /// anisotropic 3 x 3 stiffness, plus a small mass on the diagonal.
+    fn laplacian(mg: &mut Multigrid, nx: usize, nz: usize, mass: Real) -> Vec<[DMat3; 9]> {
+        let a = mg.fine(nx, nz);
+        let k = |di: isize, dj: isize| {
+            let (di, dj) = (di as Real, dj as Real);
+            // Odd in the offset, so that the blocks of a spring's two ends agree.
+            let d = Vec3::new(di, 0.1 * di - 0.05 * dj, dj).normalize();
+            DMat3::from_diagonal(Vec3::splat(0.05)) + DMat3::from_cols(d * d.x, d * d.y, d * d.z)
+        };
+        for j in 0..nz as isize {
+            for i in 0..nx as isize {
+                let node = (j as usize) * nx + i as usize;
+                a[node][CENTRE] = DMat3::from_diagonal(Vec3::splat(mass));
+                for dj in -1..=1 {
+                    for di in -1..=1 {
+                        let (ii, jj) = (i + di, j + dj);
+                        if (di, dj) == (0, 0)
+                            || ii < 0
+                            || jj < 0
+                            || ii >= nx as isize
+                            || jj >= nz as isize
+                        {
+                            continue;
+                        }
+                        let s = k(di, dj);
+                        a[node][CENTRE] += s;
+                        a[node][slot(di, dj)] = -s;
+                    }
+                }
+            }
+        }
+        a.to_vec()
+    }
+
+    fn multiply(a: &[[DMat3; 9]], nx: usize, nz: usize, x: &[Vec3]) -> Vec<Vec3> {
+        let mut y = vec![Vec3::ZERO; nx * nz];
+        for j in 0..nz as isize {
+            for i in 0..nx as isize {
+                let node = (j as usize) * nx + i as usize;
+                for dj in -1..=1 {
+                    for di in -1..=1 {
+                        let (ii, jj) = (i + di, j + dj);
+                        if ii < 0 || jj < 0 || ii >= nx as isize || jj >= nz as isize {
+                            continue;
+                        }
+                        y[node] += a[node][slot(di, dj)] * x[jj as usize * nx + ii as usize];
+                    }
+                }
+            }
+        }
+        y
+    }
+
+    /// Stationary iteration `x += V (b - A x)`: the V-cycle must contract the error by a factor
+    /// independent of the grid's size (what makes it worth its cost), and the coarsest
+    /// solve alone is exact.
+    #[test]
+    fn v_cycle_contracts_the_error_by_a_grid_independent_factor() {
+        for (nx, nz) in [(4, 3), (17, 9), (33, 33), (65, 65), (50, 50), (101, 64)] {
+            let mut mg = Multigrid::default();
+            let a = laplacian(&mut mg, nx, nz, 1e-5);
+            mg.build();
+            let n = nx * nz;
+            let truth: Vec<Vec3> = (0..n)
+                .map(|k| Vec3::new((k as Real).sin(), (0.3 * k as Real).cos(), 1.0))
+                .collect();
+            let b = multiply(&a, nx, nz, &truth);
+            let mut x = vec![Vec3::ZERO; n];
+            let err = |x: &[Vec3]| {
+                x.iter()
+                    .zip(&truth)
+                    .map(|(x, t)| (*x - *t).length_squared())
+                    .sum::<Real>()
+                    .sqrt()
+            };
+            let e0 = err(&x);
+            let mut factor: Real = 0.0;
+            let mut last = e0;
+            for _ in 0..8 {
+                let ax = multiply(&a, nx, nz, &x);
+                let r: Vec<Vec3> = b.iter().zip(&ax).map(|(b, a)| *b - *a).collect();
+                let mut dx = vec![Vec3::ZERO; n];
+                mg.apply(|k| r[k], |k, v| dx[k] = v);
+                for (x, d) in x.iter_mut().zip(&dx) {
+                    *x += *d;
+                }
+                let e = err(&x);
+                factor = factor.max(e / last);
+                last = e;
+            }
+            if nx <= COARSEST_SIDE {
+                assert!(last < 1e-9 * e0, "{nx}x{nz}: direct solve left {last}");
+            } else {
+                assert!(
+                    factor < 0.5,
+                    "{nx}x{nz}: error contraction {factor} per cycle"
+                );
+            }
+        }
+    }
+
+    /// The V-cycle is symmetric: `u . V w = w . V u` (a conjugate-gradient preconditioner
+    /// must be).
+    #[test]
+    fn v_cycle_is_symmetric() {
+        let (nx, nz) = (23, 12);
+        let mut mg = Multigrid::default();
+        laplacian(&mut mg, nx, nz, 1e-3);
+        mg.build();
+        let n = nx * nz;
+        let u: Vec<Vec3> = (0..n)
+            .map(|k| Vec3::new((k as Real).sin(), 1.0, (k as Real * 0.7).cos()))
+            .collect();
+        let w: Vec<Vec3> = (0..n)
+            .map(|k| Vec3::new((k as Real * 1.3).cos(), -0.5, (k as Real).sin()))
+            .collect();
+        let mut vu = vec![Vec3::ZERO; n];
+        let mut vw = vec![Vec3::ZERO; n];
+        mg.apply(|k| u[k], |k, v| vu[k] = v);
+        mg.apply(|k| w[k], |k, v| vw[k] = v);
+        let a: Real = w.iter().zip(&vu).map(|(a, b)| a.dot(*b)).sum();
+        let b: Real = u.iter().zip(&vw).map(|(a, b)| a.dot(*b)).sum();
+        assert!((a - b).abs() <= 1e-10 * a.abs().max(b.abs()), "{a} vs {b}");
+    }
+}
