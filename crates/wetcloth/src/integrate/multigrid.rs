@@ -63,27 +63,28 @@ impl Level {
         self.r.resize(n, Vec3::ZERO);
     }
 
-    /// `sum over the neighbours of a (not a itself) of A_ab x_b`.
+    /// `sum over the neighbours b of a (not a itself) of A_ab x_b`: all of them, or with
+    /// `half` only those before `a` (`Some(true)`) or after it (`Some(false)`) in node order.
     #[inline(always)]
-    fn off_diagonal(&self, a: usize) -> Vec3 {
+    fn neighbours(&self, a: usize, half: Option<bool>) -> Vec3 {
         let (nx, nz) = (self.nx, self.nz);
         let (i, j) = (a % nx, a / nx);
         let blocks = &self.a[a];
+        let (before, after) = (half != Some(false), half != Some(true));
         if i > 0 && j > 0 && i + 1 < nx && j + 1 < nz {
-            // An inner node: all 8 neighbours, rows j - 1, j, j + 1 as slices.
-            let (up, mid, down) = (
-                &self.x[a - nx - 1..a - nx + 2],
-                &self.x[a - 1..a + 2],
-                &self.x[a + nx - 1..a + nx + 2],
-            );
-            return blocks[0] * up[0]
-                + blocks[1] * up[1]
-                + blocks[2] * up[2]
-                + blocks[3] * mid[0]
-                + blocks[5] * mid[2]
-                + blocks[6] * down[0]
-                + blocks[7] * down[1]
-                + blocks[8] * down[2];
+            // An inner node: rows j - 1, j, j + 1 as slices.
+            let mut s = Vec3::ZERO;
+            if before {
+                let up = &self.x[a - nx - 1..a - nx + 2];
+                s += blocks[0] * up[0] + blocks[1] * up[1] + blocks[2] * up[2];
+                s += blocks[3] * self.x[a - 1];
+            }
+            if after {
+                let down = &self.x[a + nx - 1..a + nx + 2];
+                s += blocks[5] * self.x[a + 1];
+                s += blocks[6] * down[0] + blocks[7] * down[1] + blocks[8] * down[2];
+            }
+            return s;
         }
         let mut s = Vec3::ZERO;
         for dj in -1isize..=1 {
@@ -93,7 +94,13 @@ impl Level {
             }
             for di in -1isize..=1 {
                 let ii = i as isize + di;
-                if (di == 0 && dj == 0) || ii < 0 || ii >= nx as isize {
+                let earlier = dj < 0 || (dj == 0 && di < 0);
+                if (di == 0 && dj == 0)
+                    || ii < 0
+                    || ii >= nx as isize
+                    || (earlier && !before)
+                    || (!earlier && !after)
+                {
                     continue;
                 }
                 s += blocks[slot(di, dj)] * self.x[jj as usize * nx + ii as usize];
@@ -102,21 +109,30 @@ impl Level {
         s
     }
 
-    /// One Gauss-Seidel sweep, forwards or backwards.
-    fn sweep(&mut self, forwards: bool) {
+    /// A forward Gauss-Seidel sweep from `x = 0` and the residual `r = b - A x` after it: a
+    /// node's later neighbours are still zero when it is solved, so the sweep needs only its
+    /// earlier ones, and the residual only its later ones (half the work of a sweep and a
+    /// residual each over the whole stencil).
+    fn smooth_from_zero(&mut self) {
         let n = self.nx * self.nz;
-        for t in 0..n {
-            let a = if forwards { t } else { n - 1 - t };
-            let s = self.b[a] - self.off_diagonal(a);
+        for a in 0..n {
+            let s = self.b[a] - self.neighbours(a, Some(true));
             self.x[a] = self.inv[a] * s;
+            // Kept for the residual: b - (earlier neighbours).
+            self.r[a] = s;
+        }
+        for a in 0..n {
+            let later = self.neighbours(a, Some(false));
+            self.r[a] = self.r[a] - self.a[a][CENTRE] * self.x[a] - later;
         }
     }
 
-    /// `r = b - A x`.
-    fn residual(&mut self) {
-        for a in 0..self.nx * self.nz {
-            let ax = self.a[a][CENTRE] * self.x[a] + self.off_diagonal(a);
-            self.r[a] = self.b[a] - ax;
+    /// One backward Gauss-Seidel sweep.
+    fn sweep_backwards(&mut self) {
+        let n = self.nx * self.nz;
+        for a in (0..n).rev() {
+            let s = self.b[a] - self.neighbours(a, None);
+            self.x[a] = self.inv[a] * s;
         }
     }
 }
@@ -228,9 +244,7 @@ impl Multigrid {
         }
         {
             let lv = &mut self.levels[l];
-            lv.x.fill(Vec3::ZERO);
-            lv.sweep(true);
-            lv.residual();
+            lv.smooth_from_zero();
         }
         let (fine, rest) = self.levels.split_at_mut(l + 1);
         let (f, c) = (&fine[l], &mut rest[0]);
@@ -265,7 +279,7 @@ impl Multigrid {
                 f.x[j * f.nx + i] += e;
             }
         }
-        f.sweep(false);
+        f.sweep_backwards();
     }
 
     fn factor_coarsest(&mut self) {
