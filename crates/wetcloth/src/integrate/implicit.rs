@@ -37,7 +37,7 @@
 //! Every sum (the dot products of the gradient, the regions' dot products) runs over the
 //! particles in index order, so the result does not depend on the thread count.
 
-use super::multigrid::{CENTRE, Multigrid, slot};
+use super::multigrid::{CENTRE, Multigrid, cholesky, cholesky_solve, neighbours, slot};
 use super::{Air, Fused};
 use crate::air::Timing;
 use crate::air::region::Regions;
@@ -751,46 +751,19 @@ impl Implicit {
             if let Constraint::Normal { n, drag, .. } = c {
                 centre += (DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z)) * drag;
             }
-            if c == Constraint::Free {
-                blocks[a][CENTRE] = centre;
-                // Off-diagonal blocks: S_a A_ab S_b, with S_a the identity.
-                for dj in -1isize..=1 {
-                    for di in -1isize..=1 {
-                        let (ii, jj) = (i as isize + di, j as isize + dj);
-                        if (di, dj) == (0, 0)
-                            || ii < 0
-                            || jj < 0
-                            || ii >= nx as isize
-                            || jj >= nz as isize
-                        {
-                            continue;
-                        }
-                        let cb = self.constraints[jj as usize * nx + ii as usize];
-                        if cb != Constraint::Free {
-                            let s = slot(di, dj);
-                            blocks[a][s] *= proj(cb);
-                        }
-                    }
-                }
-                continue;
-            }
-            // A constrained direction keeps only its own diagonal (the solve never sees it).
-            let scale = (centre.x_axis.x + centre.y_axis.y + centre.z_axis.z) / 3.0;
-            blocks[a][CENTRE] = sa * centre * sa + (DMat3::IDENTITY - sa) * scale;
-            for dj in -1isize..=1 {
-                for di in -1isize..=1 {
-                    let (ii, jj) = (i as isize + di, j as isize + dj);
-                    if (di, dj) == (0, 0)
-                        || ii < 0
-                        || jj < 0
-                        || ii >= nx as isize
-                        || jj >= nz as isize
-                    {
-                        continue;
-                    }
-                    let s = slot(di, dj);
-                    let sb = proj(self.constraints[jj as usize * nx + ii as usize]);
-                    blocks[a][s] = sa * blocks[a][s] * sb;
+            let free = c == Constraint::Free;
+            blocks[a][CENTRE] = if free {
+                centre
+            } else {
+                // A constrained direction keeps only its own diagonal (the solve never sees it).
+                let scale = (centre.x_axis.x + centre.y_axis.y + centre.z_axis.z) / 3.0;
+                sa * centre * sa + (DMat3::IDENTITY - sa) * scale
+            };
+            // Off-diagonal blocks: S_a A_ab S_b.
+            for (s, b) in neighbours(i, j, nx, nz) {
+                let cb = self.constraints[b];
+                if !(free && cb == Constraint::Free) {
+                    blocks[a][s] = sa * blocks[a][s] * proj(cb);
                 }
             }
         }
@@ -1179,45 +1152,6 @@ const MULTIGRID_MIN_PARTICLES: usize = 400;
 /// Most gas regions whose rank-one term the multigrid preconditioner corrects for (Woodbury);
 /// the others are left to the conjugate gradient.
 const MAX_GAS_CORRECTIONS: usize = 8;
-
-/// In-place dense Cholesky factorisation (lower, row-major) of the `m` x `m` matrix `c`; a
-/// pivot that is not positive is replaced by the diagonal's magnitude.
-fn cholesky(c: &mut [Real], m: usize) {
-    for k in 0..m {
-        let mut d = c[k * m + k];
-        for t in 0..k {
-            d -= c[k * m + t] * c[k * m + t];
-        }
-        let scale = c[k * m + k].abs().max(Real::MIN_POSITIVE);
-        let d = if d > 1e-14 * scale { d } else { scale }.sqrt();
-        c[k * m + k] = d;
-        for r in k + 1..m {
-            let mut s = c[r * m + k];
-            for t in 0..k {
-                s -= c[r * m + t] * c[k * m + t];
-            }
-            c[r * m + k] = s / d;
-        }
-    }
-}
-
-/// Solves `L L^T y = b` in place, with `L` from [`cholesky`].
-fn cholesky_solve(c: &[Real], m: usize, y: &mut [Real]) {
-    for k in 0..m {
-        let mut s = y[k];
-        for t in 0..k {
-            s -= c[k * m + t] * y[t];
-        }
-        y[k] = s / c[k * m + k];
-    }
-    for k in (0..m).rev() {
-        let mut s = y[k];
-        for t in k + 1..m {
-            s -= c[t * m + k] * y[t];
-        }
-        y[k] = s / c[k * m + k];
-    }
-}
 
 /// Which vector [`Implicit::apply`] multiplies.
 #[derive(Clone, Copy)]

@@ -35,6 +35,23 @@ pub const fn slot(di: isize, dj: isize) -> usize {
 /// The centre slot (the node's own block).
 pub const CENTRE: usize = slot(0, 0);
 
+/// The neighbours of node `(i, j)` of an `nx` x `nz` grid (not the node itself): each one's
+/// stencil slot and node index, in node order.
+pub(crate) fn neighbours(
+    i: usize,
+    j: usize,
+    nx: usize,
+    nz: usize,
+) -> impl Iterator<Item = (usize, usize)> {
+    (-1isize..=1).flat_map(move |dj| {
+        (-1isize..=1).filter_map(move |di| {
+            let (ii, jj) = (i as isize + di, j as isize + dj);
+            let inside = ii >= 0 && jj >= 0 && ii < nx as isize && jj < nz as isize;
+            (inside && (di, dj) != (0, 0)).then(|| (slot(di, dj), jj as usize * nx + ii as usize))
+        })
+    })
+}
+
 /// One grid's matrix and work vectors.
 #[derive(Clone, Debug, Default)]
 struct Level {
@@ -293,64 +310,66 @@ impl Multigrid {
         // The dense matrix from the blocks.
         for a in 0..n {
             let (i, j) = (a % lv.nx, a / lv.nx);
-            for dj in -1isize..=1 {
-                for di in -1isize..=1 {
-                    let (ii, jj) = (i as isize + di, j as isize + dj);
-                    if ii < 0 || jj < 0 || ii >= lv.nx as isize || jj >= lv.nz as isize {
-                        continue;
-                    }
-                    let b = jj as usize * lv.nx + ii as usize;
-                    let blk = lv.a[a][slot(di, dj)];
-                    for r in 0..3 {
-                        for s in 0..3 {
-                            c[(3 * a + r) * m + 3 * b + s] = blk.col(s)[r];
-                        }
+            let own = std::iter::once((CENTRE, a));
+            for (s, b) in own.chain(neighbours(i, j, lv.nx, lv.nz)) {
+                let blk = lv.a[a][s];
+                for r in 0..3 {
+                    for t in 0..3 {
+                        c[(3 * a + r) * m + 3 * b + t] = blk.col(t)[r];
                     }
                 }
             }
         }
-        // In-place Cholesky, lower triangle.
-        for k in 0..m {
-            let mut d = c[k * m + k];
-            for t in 0..k {
-                d -= c[k * m + t] * c[k * m + t];
-            }
-            let scale = c[k * m + k].abs().max(Real::MIN_POSITIVE);
-            let d = if d > 1e-14 * scale { d } else { scale };
-            let d = d.sqrt();
-            c[k * m + k] = d;
-            for r in k + 1..m {
-                let mut s = c[r * m + k];
-                for t in 0..k {
-                    s -= c[r * m + t] * c[k * m + t];
-                }
-                c[r * m + k] = s / d;
-            }
-        }
+        cholesky(c, m);
     }
 
     fn solve_coarsest(&mut self) {
         let m = self.m;
-        let c = &self.chol;
         let lv = self.levels.last_mut().expect("built");
-        let mut y = vec![0.0; m];
-        for k in 0..m {
-            let mut s = lv.b[k / 3][k % 3];
-            for t in 0..k {
-                s -= c[k * m + t] * y[t];
-            }
-            y[k] = s / c[k * m + k];
-        }
-        for k in (0..m).rev() {
-            let mut s = y[k];
-            for t in k + 1..m {
-                s -= c[t * m + k] * y[t];
-            }
-            y[k] = s / c[k * m + k];
-        }
+        let mut y: Vec<Real> = lv.b.iter().flat_map(|b| b.to_array()).collect();
+        cholesky_solve(&self.chol, m, &mut y);
         for (a, x) in lv.x.iter_mut().enumerate() {
             *x = Vec3::new(y[3 * a], y[3 * a + 1], y[3 * a + 2]);
         }
+    }
+}
+
+/// In-place dense Cholesky factorisation (lower, row-major) of the `m` x `m` matrix `c`; a
+/// pivot that is not positive is replaced by the diagonal's magnitude.
+pub(crate) fn cholesky(c: &mut [Real], m: usize) {
+    for k in 0..m {
+        let mut d = c[k * m + k];
+        for t in 0..k {
+            d -= c[k * m + t] * c[k * m + t];
+        }
+        let scale = c[k * m + k].abs().max(Real::MIN_POSITIVE);
+        let d = if d > 1e-14 * scale { d } else { scale }.sqrt();
+        c[k * m + k] = d;
+        for r in k + 1..m {
+            let mut s = c[r * m + k];
+            for t in 0..k {
+                s -= c[r * m + t] * c[k * m + t];
+            }
+            c[r * m + k] = s / d;
+        }
+    }
+}
+
+/// Solves `L L^T y = b` in place, with `L` from [`cholesky`].
+pub(crate) fn cholesky_solve(c: &[Real], m: usize, y: &mut [Real]) {
+    for k in 0..m {
+        let mut s = y[k];
+        for t in 0..k {
+            s -= c[k * m + t] * y[t];
+        }
+        y[k] = s / c[k * m + k];
+    }
+    for k in (0..m).rev() {
+        let mut s = y[k];
+        for t in k + 1..m {
+            s -= c[t * m + k] * y[t];
+        }
+        y[k] = s / c[k * m + k];
     }
 }
 
