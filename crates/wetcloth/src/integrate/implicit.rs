@@ -366,9 +366,12 @@ pub(crate) struct Implicit {
     /// pressure gradient `u_r`, and the Cholesky factor of `C^-1 + U^T V U`.
     mg: Multigrid,
     use_multigrid: bool,
-    gas_u: Vec<(usize, Soa)>,
+    /// The corrected regions (indices into `regions.list`), and scratch for `G^-1 W^T r`.
+    gas_regions: Vec<usize>,
+    gas_u: Vec<Soa>,
     gas_w: Vec<Soa>,
     gas_chol: Vec<Real>,
+    gas_y: Vec<Real>,
     /// Conjugate-gradient iterations of the last step (all solves), and of every step since
     /// this scratch was made.
     pub iterations: usize,
@@ -412,9 +415,11 @@ impl Implicit {
             diag_base: Soa::zeros(n),
             mg: Multigrid::default(),
             use_multigrid: false,
+            gas_regions: Vec::new(),
             gas_u: Vec::new(),
             gas_w: Vec::new(),
             gas_chol: Vec::new(),
+            gas_y: Vec::new(),
             iterations: 0,
             total_iterations: 0,
         }
@@ -444,11 +449,7 @@ impl Implicit {
             .sum::<usize>()
             + self.mg.heap_bytes()
             + self.gas_w.iter().map(|s| s.heap_bytes()).sum::<usize>()
-            + self
-                .gas_u
-                .iter()
-                .map(|(_, s)| s.heap_bytes())
-                .sum::<usize>()
+            + self.gas_u.iter().map(|s| s.heap_bytes()).sum::<usize>()
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
             + self.inertia.capacity() * 8
     }
@@ -684,21 +685,19 @@ impl Implicit {
         }
         // z -= W G^-1 W^T r.
         let m = self.gas_w.len();
-        let mut y: Vec<Real> = self
-            .gas_w
-            .iter()
-            .map(|w| {
-                active
-                    .iter()
-                    .map(|&k| w.get(k as usize).dot(r.get(k as usize)))
-                    .sum()
-            })
-            .collect();
-        cholesky_solve(&self.gas_chol, m, &mut y);
+        let y = &mut self.gas_y;
+        y.clear();
+        y.extend(self.gas_w.iter().map(|w| {
+            active
+                .iter()
+                .map(|&k| w.get(k as usize).dot(r.get(k as usize)))
+                .sum::<Real>()
+        }));
+        cholesky_solve(&self.gas_chol, m, y);
         for &k in active {
             let k = k as usize;
             let mut c = z.get(k);
-            for (w, y) in self.gas_w.iter().zip(&y) {
+            for (w, y) in self.gas_w.iter().zip(y.iter()) {
                 c -= w.get(k) * *y;
             }
             z.set(k, c);
@@ -771,26 +770,19 @@ impl Implicit {
         // The gas springs: u_r = S g_r over the region, w_r = S V u_r, and the Cholesky
         // factor of G = diag(1 / (dt^2 k_r)) + U^T W.
         let n = nx * nz;
-        let gas: Vec<(usize, Real)> = self
-            .gas
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|&(_, g)| g > 0.0)
-            .take(MAX_GAS_CORRECTIONS)
-            .collect();
-        self.gas_u.truncate(gas.len());
-        self.gas_w.truncate(gas.len());
-        while self.gas_u.len() < gas.len() {
-            self.gas_u.push((0, Soa::zeros(n)));
-            self.gas_w.push(Soa::zeros(n));
-        }
-        for (slot_r, &(r, _)) in gas.iter().enumerate() {
-            let (region, u) = &mut self.gas_u[slot_r];
-            *region = r;
-            if u.len() != n {
-                *u = Soa::zeros(n);
-            }
+        let regions = &mut self.gas_regions;
+        regions.clear();
+        regions.extend(
+            (0..self.gas.len())
+                .filter(|&r| self.gas[r] > 0.0)
+                .take(MAX_GAS_CORRECTIONS),
+        );
+        let m = regions.len();
+        self.gas_u.truncate(m);
+        self.gas_w.truncate(m);
+        self.gas_u.resize_with(m, || Soa::zeros(n));
+        self.gas_w.resize_with(m, || Soa::zeros(n));
+        for ((&r, u), w) in regions.iter().zip(&mut self.gas_u).zip(&mut self.gas_w) {
             for k in 0..n {
                 let g = if sys.regions.of(k) == Some(r) {
                     self.constraints[k].filter(self.per_pascal.get(k))
@@ -799,26 +791,25 @@ impl Implicit {
                 };
                 u.set(k, g);
             }
-            let w = &mut self.gas_w[slot_r];
-            if w.len() != n {
-                *w = Soa::zeros(n);
-            }
             let constraints = &self.constraints;
             self.mg
                 .apply(|k| u.get(k), |k, x| w.set(k, constraints[k].filter(x)));
         }
-        let m = gas.len();
         self.gas_chol.clear();
         self.gas_chol.resize(m * m, 0.0);
         for a in 0..m {
             for b in 0..m {
-                let (_, u) = &self.gas_u[a];
-                let w = &self.gas_w[b];
+                let (u, w) = (&self.gas_u[a], &self.gas_w[b]);
                 let mut dot = 0.0;
                 for k in 0..n {
                     dot += u.get(k).dot(w.get(k));
                 }
-                self.gas_chol[a * m + b] = dot + if a == b { 1.0 / gas[a].1 } else { 0.0 };
+                let own = if a == b {
+                    1.0 / self.gas[regions[a]]
+                } else {
+                    0.0
+                };
+                self.gas_chol[a * m + b] = dot + own;
             }
         }
         cholesky(&mut self.gas_chol, m);

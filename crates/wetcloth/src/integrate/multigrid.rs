@@ -194,6 +194,8 @@ pub(crate) struct Multigrid {
     /// Dense Cholesky factor (lower, row-major) of the coarsest matrix, `m` x `m`.
     chol: Vec<Real>,
     m: usize,
+    /// The coarsest solve's right-hand side and solution, flattened.
+    y: Vec<Real>,
 }
 
 impl Multigrid {
@@ -326,8 +328,10 @@ impl Multigrid {
     fn solve_coarsest(&mut self) {
         let m = self.m;
         let lv = self.levels.last_mut().expect("built");
-        let mut y: Vec<Real> = lv.b.iter().flat_map(|b| b.to_array()).collect();
-        cholesky_solve(&self.chol, m, &mut y);
+        let y = &mut self.y;
+        y.clear();
+        y.extend(lv.b.iter().flat_map(|b| b.to_array()));
+        cholesky_solve(&self.chol, m, y);
         for (a, x) in lv.x.iter_mut().enumerate() {
             *x = Vec3::new(y[3 * a], y[3 * a + 1], y[3 * a + 2]);
         }
