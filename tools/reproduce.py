@@ -104,6 +104,63 @@ def shape_measures(run, info, t, pinches):
     }
 
 
+def fold_measures(run, info, t, pinches, hand=1, radii=(4, 5, 6, 8)):
+    """The fold pattern around the first of `pinches`: for circles of `radii` grid cells around it (in
+    rest coordinates), the directions (degrees from +x, the weave) of the ridges, local maxima
+    of the height along the circle that stand out from their neighbourhood (+-22.5 degrees) by
+    more than 5 % of the circle's mean height; and the largest stretch of the weave (structural)
+    and of the diagonal (shear) springs away from the hands (both ends more than `hand` + 1
+    cells from every pinch: the fingertip's edge concentrates the pull)."""
+    nx, nz = info["resolution"]
+    sx, sz = info["size"]
+    r = info["particle_radius"]
+    v = read_obj(frame_at(run, info, t))
+    h = [p[1] - r for p in v]
+    ci, cj = pinches[0]
+
+    def height(x, z):
+        x = min(max(x, 0.0), nx - 1.001)
+        z = min(max(z, 0.0), nz - 1.001)
+        i, j = int(x), int(z)
+        fx, fz = x - i, z - j
+        g = lambda a, b: h[b * nx + a]
+        return (g(i, j) * (1 - fx) * (1 - fz) + g(i + 1, j) * fx * (1 - fz)
+                + g(i, j + 1) * (1 - fx) * fz + g(i + 1, j + 1) * fx * fz)
+
+    n = 144
+    ridges = {}
+    for rad in radii:
+        vals = [height(ci + rad * math.cos(2 * math.pi * a / n), cj + rad * math.sin(2 * math.pi * a / n))
+                for a in range(n)]
+        mean = sum(vals) / n
+        ridges[rad] = {
+            "mean_mm": mean * 1e3,
+            "amplitude_mm": (max(vals) - min(vals)) * 1e3,
+            "angles": [round(a * 360 / n) for a in range(n)
+                       if vals[a] > vals[a - 1] and vals[a] >= vals[(a + 1) % n]
+                       and vals[a] - min(vals[(a + b) % n] for b in range(-9, 10))
+                       > 0.05 * max(mean, 1e-12)],
+        }
+    dx, dz = sx / (nx - 1), sz / (nz - 1)
+    weave = shear = 0.0
+    for j in range(nz):
+        for i in range(nx):
+            for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
+                a, b = i + di, j + dj
+                if not (0 <= a < nx and 0 <= b < nz):
+                    continue
+                if any(min(max(abs(i - pi), abs(j - pj)), max(abs(a - pi), abs(b - pj))) <= hand + 1
+                       for pi, pj in pinches):
+                    continue
+                rest = math.hypot(di * dx, dj * dz)
+                e = math.dist(v[j * nx + i], v[b * nx + a]) / rest - 1.0
+                if di == 0 or dj == 0:
+                    weave = max(weave, e)
+                else:
+                    shear = max(shear, e)
+    return {"ridges": ridges, "weave_pct": weave * 100, "shear_pct": shear * 100}
+
+
 def render(run, name, t, camera, size="480x270", extra=()):
     info = run_info(run)
     k = min(int(round(t * info["frame_rate"])), info["frames"] - 1)
@@ -161,7 +218,8 @@ def main():
     sh("cargo", "build", "--release", "-p", "wetcloth-cli", cwd=ROOT)
     OUT.mkdir(parents=True, exist_ok=True)
 
-    names = ["settle", "pinch-center", "pinch-two", "air-0", "air-400", "pinch-dry", "peel-leak"]
+    names = ["settle", "pinch-center", "pinch-two", "air-0", "air-400", "pinch-dry", "peel-leak",
+             "pinch-fine", "pinch-fine-two"]
     runs = {n: run_scene(n) for n in names}
     m = {n: read_metrics(runs[n]) for n in names}
     info = {n: run_info(runs[n]) for n in names}
@@ -195,7 +253,32 @@ def main():
         "air-0": shape_measures(runs["air-0"], info["air-0"], lift_end, [(25, 25)]),
         "air-400": shape_measures(runs["air-400"], info["air-400"], 1.75, [(25, 25)]),
         "pinch-dry": shape_measures(runs["pinch-dry"], info["pinch-dry"], lift_end, [(25, 25)]),
+        "pinch-fine": shape_measures(runs["pinch-fine"], info["pinch-fine"], lift_end, [(50, 50)]),
+        "pinch-fine-two": shape_measures(runs["pinch-fine-two"], info["pinch-fine-two"], lift_end,
+                                         [(33, 50), (66, 50)]),
     }
+    folds = {
+        "pinch-fine": fold_measures(runs["pinch-fine"], info["pinch-fine"], lift_end, [(50, 50)]),
+        "pinch-fine-two": fold_measures(runs["pinch-fine-two"], info["pinch-fine-two"], lift_end,
+                                        [(33, 50), (66, 50)]),
+    }
+    # The fine pinch with air coming in through the wet weave (the pockets model's Darcy
+    # permeability): does it let the cloth fold the way the thesis' photograph does?
+    perm = (ROOT / "scenes" / "pinch-fine.toml").read_text().replace(
+        'name = "pinch-fine"', 'name = "pinch-fine-permeable"').replace(
+        "duration = 2.5", "duration = 1.25").replace(
+        "trapped_air = 0.0", 'trapped_air = 0.0\nmodel = "pockets"\npermeability = 1e-8')
+    perm_path = OUT / "pinch-fine-permeable.toml"
+    perm_path.write_text(perm)
+    sh(BIN, "run", perm_path, "--out", OUT / "pinch-fine-permeable", "--quiet")
+    runs["pinch-fine-permeable"] = OUT / "pinch-fine-permeable"
+    m["pinch-fine-permeable"] = read_metrics(runs["pinch-fine-permeable"])
+    info["pinch-fine-permeable"] = run_info(runs["pinch-fine-permeable"])
+    last["pinch-fine-permeable"] = m["pinch-fine-permeable"][-1]
+    shapes["pinch-fine-permeable"] = shape_measures(
+        runs["pinch-fine-permeable"], info["pinch-fine-permeable"], lift_end, [(50, 50)])
+    folds["pinch-fine-permeable"] = fold_measures(
+        runs["pinch-fine-permeable"], info["pinch-fine-permeable"], lift_end, [(50, 50)])
     close = "35,40,0.14"
     img = {
         "pinch-center": render(runs["pinch-center"], "fig-4-3-pinch-center", lift_end, close),
@@ -203,6 +286,20 @@ def main():
         "air-0": render(runs["air-0"], "fig-4-5-air-0", lift_end, close),
         "air-400": render(runs["air-400"], "fig-4-6-air-400", 1.75, "35,25,0.5"),
         "pinch-dry": render(runs["pinch-dry"], "baseline-pinch-dry", lift_end, "35,25,0.5"),
+        # Framed on the pinch, looking along a diagonal so that the ridges along the weave
+        # stand out against the sky on either side of the tent.
+        "pinch-fine": render(runs["pinch-fine"], "fig-4-3-pinch-fine", lift_end,
+                             "yaw=45;pitch=12;distance=0.08;target=0,0.004,0",
+                             extra=("--no-grabs",)),
+        "pinch-fine-top": render(runs["pinch-fine"], "fig-4-3-pinch-fine-above", lift_end,
+                                 "yaw=20;pitch=30;distance=0.09;target=0,0.003,0",
+                                 extra=("--no-grabs",)),
+        "pinch-fine-two": render(runs["pinch-fine-two"], "fig-4-4-pinch-fine-two", lift_end,
+                                 "yaw=20;pitch=22;distance=0.17;target=0,0.003,0",
+                                 extra=("--no-grabs",)),
+        "pinch-fine-permeable": render(runs["pinch-fine-permeable"], "fig-4-3-pinch-fine-permeable",
+                                       lift_end, "yaw=30;pitch=35;distance=0.35;target=0,0.004,0",
+                                       extra=("--no-grabs",)),
         "peel-leak": render(runs["peel-leak"], "beyond-peel-leak", 1.75,
                             "yaw=-120 pitch=30 distance=0.22 target=-0.12,0,-0.12"),
     }
@@ -273,7 +370,9 @@ def main():
     w("All scenes use the thesis' cloth (30 cm square, 50 x 50 particles, 20 g). Its spring "
       "constants are not given: `settle` uses 500 N/m (structural) and 125 N/m (shear) at the "
       "thesis' step of 1/12000 s, the pinch scenes a stiffer 5000 and 1250 N/m at 1/36000 s "
-      "(the explicit step must shrink with the stiffness); `scenes/README.md` explains why.")
+      "(the explicit step must shrink with the stiffness); `scenes/README.md` explains why. "
+      "The fine pinches (`pinch-fine`, `pinch-fine-two`) put the same cloth on 100 x 100 "
+      "particles at 200 000 and 10 000 N/m, with the implicit integrator at 1/600 s.")
     w("")
 
     s = last["settle"]
@@ -338,9 +437,95 @@ def main():
       f"cross-shaped folds of its photograph are not resolved: the lifted region is "
       f"{round(pc['lifted_cm2'] / pc['cell_cm2'])} particles around the pinch, reaching "
       f"{fmt(pc['axis_cm'])} cm along the weave and {fmt(pc['diag_cm'])} cm along the "
-      f"diagonals, one grid cell either way, too few particles to fold. Folds would need a "
-      f"finer or stiffer cloth, and so a smaller time step; the thesis' cloth parameters are "
-      f"not given.")
+      f"diagonals, one grid cell either way, too few particles to fold; the fine cloth below "
+      f"resolves them.")
+    w("")
+
+    def ridge_text(f, rad):
+        r = f["ridges"][rad]
+        return (", ".join(f"{a}" for a in r["angles"]) or "none") + f" ({fmt(r['amplitude_mm'])} mm)"
+
+    def fine_rows(names):
+        w("| quantity | " + " | ".join(f"`{n}`" for n in names) + " |")
+        w("|---|" + "---|" * len(names))
+        rows = [
+            ("particles, spacing (mm)", lambda n: f"{info[n]['resolution'][0]} x {info[n]['resolution'][1]}, "
+             f"{fmt(info[n]['size'][0] / (info[n]['resolution'][0] - 1) * 1e3)}"),
+            ("lifted area (cm^2), particles", lambda n: f"{fmt(shapes[n]['lifted_cm2'])}, "
+             f"{round(shapes[n]['lifted_cm2'] / shapes[n]['cell_cm2'])}"),
+            ("tent height (mm)", lambda n: fmt(shapes[n]["height_mm"])),
+            ("lifted reach along the weave / diagonal (cm)",
+             lambda n: f"{fmt(shapes[n]['axis_cm'])} / {fmt(shapes[n]['diag_cm'])}"),
+            ("peak grab force (N)", lambda n: fmt(peak(n, "grab_force"))),
+            ("largest stretch of the weave, anywhere (%)", lambda n: fmt(peak(n, "max_stretch") * 100)),
+            ("largest stretch away from the hands, weave / shear springs (%)",
+             lambda n: f"{fmt(folds[n]['weave_pct'])} / {fmt(folds[n]['shear_pct'])}"
+             if n in folds else "-"),
+        ] + [
+            (f"ridges {rad} cells ({fmt(rad * spacing * 1e3)} mm) from the (first) pinch: "
+             f"directions (deg from the weave), height range",
+             lambda n, rad=rad: ridge_text(folds[n], rad) if n in folds else "-")
+            for rad in (4, 6, 8)
+        ]
+        for label, f in rows:
+            w(f"| {label} | " + " | ".join(f(n) for n in names) + " |")
+        w("")
+
+    def cross(f):
+        """Four ridges along the weave (within 10 degrees of 0, 90, 180, 270) on the outer
+        circles: the cross."""
+        def on_weave(a):
+            return min(abs(a - b) for b in (0, 90, 180, 270, 360)) <= 10
+        return all(len(f["ridges"][rad]["angles"]) == 4 and all(on_weave(a) for a in f["ridges"][rad]["angles"])
+                   for rad in (6, 8))
+
+    pf, ff = shapes["pinch-fine"], folds["pinch-fine"]
+    spacing = info["pinch-fine"]["size"][0] / (info["pinch-fine"]["resolution"][0] - 1)
+    w("### On a fine, stiff cloth")
+    w("")
+    w("Scene `scenes/pinch-fine.toml`: the same satin (30 cm, 20 g) at 100 x 100 particles, "
+      "stiff along the threads (200 000 N/m) and twenty times softer in shear (10 000 N/m), as "
+      "woven cloth is; lifted 1.2 cm over 1 s by a fingertip (3 x 3 particles, 9 mm) with no "
+      "trapped air. The explicit integrator would need a step of about 1/330 000 s on this "
+      "cloth; it runs with the implicit one at 1/600 s. Pictures at the end of the lift, "
+      "framed on the pinch: along a diagonal, then from above at 20 degrees.")
+    w("")
+    w(f"![fine pinch, along the diagonal]({img['pinch-fine']}) "
+      f"![fine pinch, from above]({img['pinch-fine-top']})")
+    w("")
+    fine_rows(["pinch-center", "pinch-fine"])
+    okf = cross(ff) and pf["lifted_cm2"] / pf["cell_cm2"] > 50 and ff["weave_pct"] < 10
+    w(f"**Verdict: {'reproduced' if okf else 'not reproduced'}.** On the fine cloth the lifted "
+      f"region is a tent of {round(pf['lifted_cm2'] / pf['cell_cm2'])} particles "
+      f"({fmt(pf['lifted_cm2'])} cm^2), pressed flat around it by the atmosphere as before, and "
+      f"it is {'cross-shaped' if cross(ff) else 'not cross-shaped'}: on circles 6 and 8 cells "
+      f"({fmt(6 * spacing * 100)} and {fmt(8 * spacing * 100)} cm) around the pinch the cloth "
+      f"rises in ridges at {', '.join(str(a) for a in ff['ridges'][6]['angles'])} degrees from "
+      f"the weave, {fmt(ff['ridges'][6]['amplitude_mm'])} and {fmt(ff['ridges'][8]['amplitude_mm'])} "
+      f"mm above the valleys between them. The threads carry the pull straight out from the "
+      f"fingertip and the cloth between them gives way in shear, as the thesis explains its "
+      f"photograph. Away from the fingertip the threads stretch at most "
+      f"{fmt(ff['weave_pct'])} % (the shear springs, which measure the weave's change of angle, "
+      f"{fmt(ff['shear_pct'])} %); at the fingertip's edge, where the whole pull of "
+      f"{fmt(peak('pinch-fine', 'grab_force'))} N enters the cloth, "
+      f"{fmt(peak('pinch-fine', 'max_stretch') * 100)} % (the coarse cloth: "
+      f"{fmt(peak('pinch-center', 'max_stretch') * 100)} %).")
+    w("")
+    pp, fp = shapes["pinch-fine-permeable"], folds["pinch-fine-permeable"]
+    mp = m["pinch-fine-permeable"]
+    opened = next((r["time"] for a, r in zip(mp, mp[1:]) if a["pocket_count"] > 0 and r["pocket_count"] == 0), None)
+    w(f"*Air through the wet weave.* The same lift with the pockets model and a permeability of "
+      f"1e-8 m/(s Pa) (`[air] model = \"pockets\"`, `permeability = 1e-8`): the vacuum under "
+      f"the tent fills through the weave, the pocket grows with the lifted cloth"
+      + (f" until it reaches the border at {fmt(opened)} s and opens to the room" if opened else "")
+      + f"; from then on only the water film holds the cloth, which comes up like a dry one: "
+      f"{fmt(pp['lifted_cm2'])} cm^2 lifted at the end of the lift (hand force at most "
+      f"{fmt(peak('pinch-fine-permeable', 'grab_force'))} N), folds radiating across the whole "
+      f"cloth and none near the fingertip (ridges 6 cells out: {ridge_text(fp, 6)}). Air "
+      f"through the weave is not what folds the cloth around the pinch in the thesis' "
+      f"photograph; the weave's stiffness against its shear is.")
+    w("")
+    w(f"![fine pinch, permeable]({img['pinch-fine-permeable']})")
     w("")
 
     p2 = shapes["pinch-two"]
@@ -357,7 +542,33 @@ def main():
       f"times one pinch's), and the hands together need {fmt(f2)} times the force of one: the "
       f"atmosphere presses each lifted region independently. The ridge of folds between the "
       f"points in the thesis' photograph does not form at this resolution: with the cloth "
-      f"between them held flat by 101 kPa, nothing connects the two cones.")
+      f"between them held flat by 101 kPa, nothing connects the two cones (nor on the fine "
+      f"cloth below).")
+    w("")
+
+    p2f, f2f = shapes["pinch-fine-two"], folds["pinch-fine-two"]
+    run2 = runs["pinch-fine-two"]
+    v2 = read_obj(frame_at(run2, info["pinch-fine-two"], lift_end))
+    r2 = info["pinch-fine-two"]["particle_radius"]
+    line = [v2[50 * 100 + i][1] - r2 for i in range(33, 67)]
+    mid = min(line)
+    w("### On a fine, stiff cloth")
+    w("")
+    w("Scene `scenes/pinch-fine-two.toml`: `pinch-fine`'s cloth lifted by two fingertips 10 cm "
+      "apart.")
+    w("")
+    w(f"![two fine pinches]({img['pinch-fine-two']})")
+    w("")
+    fine_rows(["pinch-fine-two", "pinch-fine"])
+    ok2 = cross(f2f)
+    w(f"**Verdict: {'partly reproduced' if ok2 else 'not reproduced'}.** Each fingertip raises "
+      f"a tent {'with the same cross of ridges along the weave' if ok2 else 'without a clear cross'} "
+      f"({fmt(p2f['lifted_cm2'])} cm^2 in all, {fmt(p2f['lifted_cm2'] / max(pf['lifted_cm2'], 1e-9))} "
+      f"times one pinch's, for {fmt(peak('pinch-fine-two', 'grab_force') / max(peak('pinch-fine', 'grab_force'), 1e-30))} "
+      f"times the force). The ridges pointing at each other along the line between the pinches "
+      f"{'do not join' if mid < LIFT else 'join'}: the cloth halfway between them lies "
+      f"{fmt(mid * 1e3)} mm above the table, held there by the vacuum, where the thesis' "
+      f"photograph shows one fold running from pinch to pinch.")
     w("")
 
     a0, a4 = shapes["air-0"], shapes["air-400"]
