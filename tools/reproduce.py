@@ -8,7 +8,7 @@ figure into docs/images/reproduction/, runs `wetcloth bench` for table 4.2, and 
 document with a verdict per figure. Needs Python 3.8+, the Rust toolchain, Mesa's software
 Vulkan (or a GPU) for the pictures, and ImageMagick's `convert` to shrink them (optional).
 
-    python3 tools/reproduce.py            # everything (a few minutes)
+    python3 tools/reproduce.py            # everything (about a quarter of an hour on 2 cores)
     python3 tools/reproduce.py --quick    # shorter bench windows
 """
 
