@@ -531,9 +531,14 @@ impl Simulation {
                 }
             });
         }
-        // Strain limiting last, so the limit holds at the end of the step.
+        // Strain limiting last, so the limit holds at the end of the step. The implicit
+        // integrator limits the strain inside its solve (springs that stiffen beyond the
+        // limit), where the contacts' friction answers the pull: a projection after it would
+        // slide particles the friction holds.
         let cloth = &self.config.cloth;
-        if cloth.strain_limit > 0.0 {
+        if cloth.strain_limit > 0.0
+            && self.config.simulation.integrator == crate::params::Integrator::Verlet
+        {
             corrected |= strain_limit::limit_strain(
                 &model.grid,
                 state,

@@ -34,6 +34,12 @@
 //! kinetic-friction deceleration, so on a slope of angle theta `a = g (sin theta - mu cos
 //! theta)` exactly, at any step.
 //!
+//! A strain limit (`[cloth] strain_limit`) is part of the springs: past `(1 + limit)` times its
+//! rest length a spring is [`LIMIT_STIFFENING`] times stiffer, so the solve (and the friction
+//! that answers its forces) sees the limit; a spring the solution takes past it while
+//! linearised below it is put on the stiff branch and the step solved again. Provot's
+//! projection, the explicit integrator's limiter, is not applied after this integrator.
+//!
 //! Every sum (the dot products of the gradient, the regions' dot products) runs over the
 //! particles in index order, so the result does not depend on the thread count.
 
@@ -72,6 +78,38 @@ const CONTACT_PASSES: usize = 4;
 /// is `mu F_n vt / max(|vt|, SLIDE_EPSILON)`, lagged one solve in `|vt|` (see
 /// `Constraint::Normal`).
 pub const SLIDE_EPSILON: Real = 1e-3;
+
+/// How much stiffer than itself a spring gets beyond the strain limit (`[cloth]
+/// strain_limit`): the implicit integrator's strain limiter. A spring pulled past the limit by
+/// a tension `T` ends `(T - k limit l) / (LIMIT_STIFFENING k)` beyond it: a thousandth of the
+/// stretch the plain spring would add.
+pub const LIMIT_STIFFENING: Real = 1000.0;
+
+/// The strain limit of one kind of spring: the length (m) beyond which it stiffens, and by
+/// how much (N/m).
+#[derive(Clone, Copy, Debug)]
+struct Limit {
+    length: Real,
+    stiffness: Real,
+}
+
+impl Limit {
+    /// The limit `limit` (relative stretch, 0 = none) of springs of stiffness `k` (N/m) and
+    /// rest length `l` (m).
+    fn new(limit: Real, k: Real, l: Real) -> Self {
+        if limit > 0.0 {
+            Limit {
+                length: l * (1.0 + limit),
+                stiffness: LIMIT_STIFFENING * k,
+            }
+        } else {
+            Limit {
+                length: Real::INFINITY,
+                stiffness: 0.0,
+            }
+        }
+    }
+}
 
 /// A particle's constraint in the solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -137,6 +175,8 @@ struct SpringSet {
     kd: Vec<Real>,
     /// Per spring: its force on its first particle (N), or `H_e (p_a - p_b)` in a product.
     w: Soa,
+    /// Per spring: whether it is linearised on its strain limit's stiff branch this step.
+    taut: Vec<bool>,
 }
 
 impl SpringSet {
@@ -146,6 +186,7 @@ impl SpringSet {
             ks: vec![0.0; n],
             kd: vec![0.0; n],
             w: Soa::zeros(n),
+            taut: vec![false; n],
         }
     }
 
@@ -158,10 +199,11 @@ impl SpringSet {
         range: std::ops::Range<usize>,
         oa: usize,
         ob: usize,
-        k: Real,
-        l: Real,
+        (k, l): (Real, Real),
+        limit: Limit,
     ) {
         let (e0, e1) = (range.start, range.end);
+        let (lmax, kl) = (limit.length, limit.stiffness);
         let (a0, a1, b0, b1) = (e0 + oa, e1 + oa, e0 + ob, e1 + ob);
         let (xa, ya, za) = (&x.x[a0..a1], &x.y[a0..a1], &x.z[a0..a1]);
         let (xb, yb, zb) = (&x.x[b0..b1], &x.y[b0..b1], &x.z[b0..b1]);
@@ -171,6 +213,7 @@ impl SpringSet {
             &mut self.d.z[e0..e1],
         );
         let (ks, kd) = (&mut self.ks[e0..e1], &mut self.kd[e0..e1]);
+        let taut = &mut self.taut[e0..e1];
         let (wx, wy, wz) = (
             &mut self.w.x[e0..e1],
             &mut self.w.y[e0..e1],
@@ -182,17 +225,75 @@ impl SpringSet {
             let live = len >= 1e-12;
             let safe = if live { len } else { 1.0 };
             let (ux, uy, uz) = (px / safe, py / safe, pz / safe);
-            let s = (1.0 - l / safe).max(0.0);
-            let f = k * (len - l);
+            // Beyond the strain limit the spring stiffens by `kl`.
+            let over = (len - lmax).max(0.0);
+            taut[e] = over > 0.0;
+            let f = k * (len - l) + kl * over;
+            let along = k + if over > 0.0 { kl } else { 0.0 };
+            // The transverse stiffness is the tension over the length (none if compressed).
+            let across = if over > 0.0 {
+                f / safe
+            } else {
+                k * (1.0 - l / safe).max(0.0)
+            };
             dx[e] = if live { ux } else { 0.0 };
             dy[e] = if live { uy } else { 0.0 };
             dz[e] = if live { uz } else { 0.0 };
-            ks[e] = if live { k * s } else { 0.0 };
-            kd[e] = if live { k * (1.0 - s) } else { 0.0 };
+            ks[e] = if live { across } else { 0.0 };
+            kd[e] = if live { along - across } else { 0.0 };
             wx[e] = if live { ux * f } else { 0.0 };
             wy[e] = if live { uy * f } else { 0.0 };
             wz[e] = if live { uz * f } else { 0.0 };
         }
+    }
+
+    /// Puts the springs `e` in `range` (stiffness `k`, rest length `l`, as in
+    /// [`SpringSet::set_range`]) that are linearised on
+    /// the soft branch but would end the step (`x + dt v`) past the strain limit onto the stiff
+    /// branch, linearised at `x` (its tangent there: `k (len - l) + kl (len - lmax)`), and adds
+    /// the change of each one's force to `df` (N, both particles). Returns how many moved.
+    #[allow(clippy::too_many_arguments)]
+    fn tighten_range(
+        &mut self,
+        x: &Soa,
+        v: &Soa,
+        dt: Real,
+        range: std::ops::Range<usize>,
+        oa: usize,
+        ob: usize,
+        (k, l): (Real, Real),
+        limit: Limit,
+        df: &mut Soa,
+    ) -> usize {
+        let mut count = 0;
+        for e in range {
+            if self.taut[e] {
+                continue;
+            }
+            let (a, b) = (e + oa, e + ob);
+            let end = (x.get(b) + v.get(b) * dt) - (x.get(a) + v.get(a) * dt);
+            if end.length() <= limit.length {
+                continue;
+            }
+            let d = x.get(b) - x.get(a);
+            let len = d.length();
+            if len < 1e-12 {
+                continue;
+            }
+            let u = d / len;
+            // The force's change: the stiff branch's tangent below the limit pushes apart.
+            let change = u * (limit.stiffness * (len - limit.length));
+            df.set(a, df.get(a) + change);
+            df.set(b, df.get(b) - change);
+            let along = k + limit.stiffness;
+            let f = k * (len - l) + limit.stiffness * (len - limit.length);
+            let across = (f / len).max(0.0);
+            self.ks[e] = across;
+            self.kd[e] = along - across;
+            self.taut[e] = true;
+            count += 1;
+        }
+        count
     }
 
     /// `w_e = H_e (p_a - p_b)` for the springs `e` in `range` between particles `e + oa` and
@@ -283,7 +384,10 @@ impl SpringSet {
     }
 
     fn heap_bytes(&self) -> usize {
-        self.d.heap_bytes() + self.w.heap_bytes() + (self.ks.capacity() + self.kd.capacity()) * 8
+        self.d.heap_bytes()
+            + self.w.heap_bytes()
+            + (self.ks.capacity() + self.kd.capacity()) * 8
+            + self.taut.capacity()
     }
 }
 
@@ -305,6 +409,17 @@ enum Dir {
     Down,
     Diag,
     Anti,
+}
+
+impl Dir {
+    /// The stiffness (N/m) and rest length (m) of this direction's springs.
+    fn constants(self, c: &crate::forces::spring::SpringConsts) -> (Real, Real) {
+        match self {
+            Dir::Right => (c.structural, c.rest_x),
+            Dir::Down => (c.structural, c.rest_z),
+            Dir::Diag | Dir::Anti => (c.shear, c.rest_diag),
+        }
+    }
 }
 
 impl Stencil {
@@ -472,13 +587,10 @@ impl Implicit {
         }
         // Each run of springs linearised, then its forces scattered.
         for (dir, run, oa, ob) in spans(nx, nz) {
-            let (k, l) = match dir {
-                Dir::Right => (c.structural, c.rest_x),
-                Dir::Down => (c.structural, c.rest_z),
-                Dir::Diag | Dir::Anti => (c.shear, c.rest_diag),
-            };
+            let (k, l) = dir.constants(c);
+            let limit = Limit::new(model.strain_limit, k, l);
             let set = self.springs.get_mut(dir);
-            set.set_range(x, run.clone(), oa, ob, k, l);
+            set.set_range(x, run.clone(), oa, ob, (k, l), limit);
             set.scatter_range(&mut self.force, run, oa, ob);
         }
         // The pressure force of 1 Pa on every particle: S N_i (or by area).
@@ -633,6 +745,44 @@ impl Implicit {
             y += self.per_pascal.get(a) * (self.gas[r] * self.dots[r]);
         }
         y
+    }
+
+    /// The strain limit inside the solve: the springs that the solution `v` takes past the
+    /// limit while linearised below it go onto their stiff branch, and the right-hand side
+    /// takes the change of their forces (held in `force`, which the step no longer needs once
+    /// the right-hand side is built). Returns whether any spring changed.
+    fn tighten(&mut self, model: &Model, x: &Soa, dt: Real) -> bool {
+        if model.strain_limit <= 0.0 {
+            return false;
+        }
+        let (nx, nz) = (model.grid.nx, model.grid.nz);
+        let c = &model.springs;
+        for f in [&mut self.force.x, &mut self.force.y, &mut self.force.z] {
+            f.fill(0.0);
+        }
+        let mut count = 0;
+        for (dir, run, oa, ob) in spans(nx, nz) {
+            let (k, l) = dir.constants(c);
+            let limit = Limit::new(model.strain_limit, k, l);
+            count += self.springs.get_mut(dir).tighten_range(
+                x,
+                &self.v,
+                dt,
+                run,
+                oa,
+                ob,
+                (k, l),
+                limit,
+                &mut self.force,
+            );
+        }
+        if count == 0 {
+            return false;
+        }
+        for k in 0..nx * nz {
+            self.rhs.set(k, self.rhs.get(k) + self.force.get(k) * dt);
+        }
+        true
     }
 
     /// The inverse diagonal of `A` (a direction of springs at a time, vectorised).
@@ -1057,6 +1207,16 @@ impl Implicit {
                     }
                     Constraint::Fixed(_) => {}
                 }
+            }
+            // The strain limit: springs this solve takes past it go onto their stiff branch.
+            if self.tighten(model, &state.x, dt) {
+                self.precondition(&sys);
+                for k in 0..n {
+                    if matches!(self.constraints[k], Constraint::Normal { .. }) {
+                        self.precondition_one(k);
+                    }
+                }
+                changed = true;
             }
             if !changed {
                 // The contact set holds: finish this solve to the full tolerance.

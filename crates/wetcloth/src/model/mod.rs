@@ -50,6 +50,11 @@ pub struct Model {
     pub gravity: Vec3,
     /// Velocity damping rate, 1/s.
     pub damping: Real,
+    /// Largest relative stretch of a structural or shear spring (`[cloth] strain_limit`, 0.1 =
+    /// 10 %; 0 = no limit). The explicit integrator enforces it after the step (Provot, see
+    /// [`crate::constraints`]); the implicit one inside its solve, as a spring that stiffens
+    /// beyond it (see [`crate::integrate::implicit`]).
+    pub strain_limit: Real,
     /// The colliders, in scene order.
     pub colliders: Vec<Collider>,
     /// The sticking surface of the air model (the first plane collider), if any.
@@ -115,6 +120,7 @@ impl Model {
             pressure_force: config.air.pressure_force,
             gravity: config.simulation.gravity,
             damping: config.cloth.damping,
+            strain_limit: config.cloth.strain_limit,
             springs: SpringConsts {
                 nx: grid.nx,
                 nz: grid.nz,
