@@ -53,7 +53,7 @@ pub struct Model {
     /// Largest relative stretch of a structural or shear spring (`[cloth] strain_limit`, 0.1 =
     /// 10 %; 0 = no limit). The explicit integrator enforces it after the step (Provot, see
     /// [`crate::constraints`]); the implicit one inside its solve, as a spring that stiffens
-    /// beyond it (see [`crate::integrate::implicit`]).
+    /// beyond it (`integrate/implicit.rs`).
     pub strain_limit: Real,
     /// The colliders, in scene order.
     pub colliders: Vec<Collider>,
