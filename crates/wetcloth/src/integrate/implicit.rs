@@ -458,7 +458,9 @@ fn spans(nx: usize, nz: usize) -> impl Iterator<Item = (Dir, Range<usize>, usize
 pub(crate) struct Implicit {
     /// The linearised springs of the four stencil directions.
     springs: Stencil,
-    /// Forces at the start of the step (without the hands and contacts), N.
+    /// Forces at the start of the step (without the hands and contacts), N; once the
+    /// right-hand side is built, the change of the forces of springs the strain limit tightens
+    /// ([`Implicit::tighten`]).
     force: Soa,
     /// Pressure force per pascal of each particle, m^2 (`S N_i`).
     per_pascal: Soa,
