@@ -16,6 +16,7 @@ pub(super) struct Edit {
     /// Steps per second (1 / time step).
     rate: f64,
     resolution: usize,
+    integrator: wetcloth::Integrator,
 }
 
 impl Edit {
@@ -28,6 +29,7 @@ impl Edit {
             damping: c.cloth.damping,
             rate: (1.0 / c.simulation.time_step).round(),
             resolution: c.cloth.resolution[0],
+            integrator: c.simulation.integrator,
         }
     }
 
@@ -56,6 +58,7 @@ impl Edit {
         if self.rate != now.rate {
             c.simulation.time_step = 1.0 / self.rate;
         }
+        c.simulation.integrator = self.integrator;
         if self.resolution != c.cloth.resolution[0] {
             // Keep the aspect of non-square grids; scene grabs name particles of the old grid.
             let r0 = c.cloth.resolution;
@@ -79,6 +82,7 @@ impl ViewerApp {
         let mut done = |r: egui::Response| {
             commit |= r.drag_stopped() || (r.changed() && !r.dragged());
         };
+        let mut switched = false;
         egui::Grid::new("params")
             .num_columns(2)
             .spacing([8.0, 4.0])
@@ -112,6 +116,30 @@ impl ViewerApp {
                 ui.label("Damping");
                 done(ui.add(egui::Slider::new(&mut e.damping, 0.0..=20.0).suffix(" 1/s")));
                 ui.end_row();
+                ui.label("Integrator").on_hover_text(
+                    "Verlet: the thesis' explicit step, small steps only. Implicit: backward \
+                     Euler, steps of 1/600 s to 1/60 s (see docs/integrators.md)",
+                );
+                let before = e.integrator;
+                egui::ComboBox::from_id_salt("integrator")
+                    .selected_text(match e.integrator {
+                        wetcloth::Integrator::Verlet => "Verlet (explicit)",
+                        wetcloth::Integrator::Implicit => "Implicit (large steps)",
+                    })
+                    .show_ui(ui, |ui| {
+                        ui.selectable_value(
+                            &mut e.integrator,
+                            wetcloth::Integrator::Verlet,
+                            "Verlet (explicit)",
+                        );
+                        ui.selectable_value(
+                            &mut e.integrator,
+                            wetcloth::Integrator::Implicit,
+                            "Implicit (large steps)",
+                        );
+                    });
+                switched = e.integrator != before;
+                ui.end_row();
                 ui.label("Time step");
                 done(
                     ui.add(
@@ -128,6 +156,7 @@ impl ViewerApp {
                 done(ui.add(egui::Slider::new(&mut e.resolution, 4..=100).suffix(" per side")));
                 ui.end_row();
             });
+        commit |= switched;
         let edited = self.edit.apply(&self.snap.config);
         let stable = edited.stable_time_step();
         let explicit = edited.simulation.integrator == wetcloth::Integrator::Verlet;
@@ -179,6 +208,14 @@ mod tests {
         assert!(c.colliders.iter().all(|k| k.friction == 0.3));
         assert!((c.simulation.time_step - 1.0 / 16000.0).abs() < 1e-15);
         assert_eq!(c.cloth.resolution, cfg.cloth.resolution);
+        let mut e3 = e.clone();
+        e3.integrator = wetcloth::Integrator::Implicit;
+        e3.rate = 120.0;
+        let c = e3.apply(&cfg);
+        assert_eq!(c.simulation.integrator, wetcloth::Integrator::Implicit);
+        assert!((c.simulation.time_step - 1.0 / 120.0).abs() < 1e-15);
+        assert!(c.validate().is_ok());
+        assert_eq!(Edit::from_config(&c), e3, "round trip");
     }
 
     #[test]
