@@ -73,6 +73,16 @@ impl Edit {
     }
 }
 
+/// A slider that keeps a value outside its range as the scene gave it: egui's default clamps
+/// it on display, and the next applied edit would then silently set, say, a 200 000 N/m cloth
+/// to the slider's end. Only what the user drags or types is clamped.
+fn slider<Num: egui::emath::Numeric>(
+    value: &mut Num,
+    range: std::ops::RangeInclusive<Num>,
+) -> egui::Slider<'_> {
+    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
+}
+
 impl ViewerApp {
     pub(super) fn parameters(&mut self, ui: &mut egui::Ui) {
         let e = &mut self.edit;
@@ -90,12 +100,12 @@ impl ViewerApp {
                 ui.label("Air amount").on_hover_text(
                     "Trapped air v0 at atmospheric pressure (thesis: 0 and 400 cm³)",
                 );
-                done(ui.add(egui::Slider::new(&mut e.air_cm3, 0.0..=1000.0).suffix(" cm³")));
+                done(ui.add(slider(&mut e.air_cm3, 0.0..=1000.0).suffix(" cm³")));
                 ui.end_row();
                 ui.label("Structural k");
                 done(
                     ui.add(
-                        egui::Slider::new(&mut e.structural, 10.0..=20000.0)
+                        slider(&mut e.structural, 10.0..=1e6)
                             .logarithmic(true)
                             .suffix(" N/m"),
                     ),
@@ -104,17 +114,17 @@ impl ViewerApp {
                 ui.label("Shear k");
                 done(
                     ui.add(
-                        egui::Slider::new(&mut e.shear, 1.0..=20000.0)
+                        slider(&mut e.shear, 1.0..=1e6)
                             .logarithmic(true)
                             .suffix(" N/m"),
                     ),
                 );
                 ui.end_row();
                 ui.label("Friction μ");
-                done(ui.add(egui::Slider::new(&mut e.friction, 0.0..=2.0)));
+                done(ui.add(slider(&mut e.friction, 0.0..=2.0)));
                 ui.end_row();
                 ui.label("Damping");
-                done(ui.add(egui::Slider::new(&mut e.damping, 0.0..=20.0).suffix(" 1/s")));
+                done(ui.add(slider(&mut e.damping, 0.0..=20.0).suffix(" 1/s")));
                 ui.end_row();
                 ui.label("Integrator").on_hover_text(
                     "Verlet: the thesis' explicit step, small steps only. Implicit: backward \
@@ -143,7 +153,7 @@ impl ViewerApp {
                 ui.label("Time step");
                 done(
                     ui.add(
-                        egui::Slider::new(&mut e.rate, 60.0..=40000.0)
+                        slider(&mut e.rate, 60.0..=40000.0)
                             .logarithmic(true)
                             .prefix("1/")
                             .suffix(" s")
@@ -153,7 +163,7 @@ impl ViewerApp {
                 ui.end_row();
                 ui.label("Resolution")
                     .on_hover_text("Particles per side; a new resolution restarts the run");
-                done(ui.add(egui::Slider::new(&mut e.resolution, 4..=100).suffix(" per side")));
+                done(ui.add(slider(&mut e.resolution, 4..=100).suffix(" per side")));
                 ui.end_row();
             });
         commit |= switched;
