@@ -228,6 +228,33 @@ mod tests {
         assert_eq!(Edit::from_config(&c), e3, "round trip");
     }
 
+    /// One frame of a headless egui context showing `slider` on `value`; returns the value.
+    fn shown(value: f64, slider: impl Fn(&mut f64) -> egui::Slider<'_>) -> f64 {
+        let ctx = egui::Context::default();
+        let mut value = value;
+        let out = ctx.run_ui(egui::RawInput::default(), |ui| {
+            ui.add(slider(&mut value));
+        });
+        out.drop_without_applying_deltas();
+        value
+    }
+
+    /// Found: the stiffness sliders ended at 20 000 N/m and clamped on display (egui's
+    /// default), so `pinch-fine`'s 200 000 N/m showed as 20 000 and the next applied edit of any
+    /// parameter set it. Now a value outside the range stays as the scene gave it.
+    #[test]
+    fn sliders_keep_a_scene_value_outside_their_range() {
+        assert_eq!(shown(2.0e7, |v| slider(v, 10.0..=1e6)), 2.0e7);
+        // What egui's default does, and what the viewer did before.
+        assert_eq!(shown(2.0e7, |v| egui::Slider::new(v, 10.0..=1e6)), 1e6);
+        let mut cfg = SimConfig::thesis_demo();
+        cfg.cloth.structural_stiffness = 2.0e5;
+        assert!(shown(2.0e5, |v| slider(v, 10.0..=1e6)) == 2.0e5);
+        let mut e = Edit::from_config(&cfg);
+        e.damping = 1.0;
+        assert_eq!(e.apply(&cfg).cloth.structural_stiffness, 2.0e5);
+    }
+
     #[test]
     fn untouched_values_keep_their_exact_scene_value() {
         let mut cfg = SimConfig::thesis_demo();
