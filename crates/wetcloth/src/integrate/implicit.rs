@@ -228,14 +228,7 @@ impl SpringSet {
             // Beyond the strain limit the spring stiffens by `kl`.
             let over = (len - lmax).max(0.0);
             taut[e] = over > 0.0;
-            let f = k * (len - l) + kl * over;
-            let along = k + if over > 0.0 { kl } else { 0.0 };
-            // The transverse stiffness is the tension over the length (none if compressed).
-            let across = if over > 0.0 {
-                f / safe
-            } else {
-                k * (1.0 - l / safe).max(0.0)
-            };
+            let (f, along, across) = linearise(k, l, kl, safe, over, over > 0.0);
             dx[e] = if live { ux } else { 0.0 };
             dy[e] = if live { uy } else { 0.0 };
             dz[e] = if live { uz } else { 0.0 };
@@ -285,9 +278,8 @@ impl SpringSet {
             let change = u * (limit.stiffness * (len - limit.length));
             df.set(a, df.get(a) + change);
             df.set(b, df.get(b) - change);
-            let along = k + limit.stiffness;
-            let f = k * (len - l) + limit.stiffness * (len - limit.length);
-            let across = (f / len).max(0.0);
+            let (_, along, across) =
+                linearise(k, l, limit.stiffness, len, len - limit.length, true);
             self.ks[e] = across;
             self.kd[e] = along - across;
             self.taut[e] = true;
@@ -391,6 +383,20 @@ impl SpringSet {
     }
 }
 
+/// A spring of stiffness `k` (N/m) and rest length `l` (m) at length `len` (m), `over` (m)
+/// along its strain limit's stiff branch of extra stiffness `kl` (N/m) when `stiff`: its
+/// tension (N), its stiffness along itself and across (N/m; across, the tension over the
+/// length, none when compressed).
+#[inline(always)]
+fn linearise(k: Real, l: Real, kl: Real, len: Real, over: Real, stiff: bool) -> (Real, Real, Real) {
+    if stiff {
+        let f = k * (len - l) + kl * over;
+        (f, k + kl, (f / len).max(0.0))
+    } else {
+        (k * (len - l), k, k * (1.0 - l / len).max(0.0))
+    }
+}
+
 /// The springs of the 9-point stencil, one set per direction, each indexed by its spring's
 /// first index: towards +x (`right`), +z (`down`), +x+z (`diag`), and from (i+1, j) towards
 /// (i, j+1) (`anti`, indexed by (i, j)).
@@ -423,6 +429,15 @@ impl Dir {
 }
 
 impl Stencil {
+    fn get(&self, dir: Dir) -> &SpringSet {
+        match dir {
+            Dir::Right => &self.right,
+            Dir::Down => &self.down,
+            Dir::Diag => &self.diag,
+            Dir::Anti => &self.anti,
+        }
+    }
+
     fn get_mut(&mut self, dir: Dir) -> &mut SpringSet {
         match dir {
             Dir::Right => &mut self.right,
@@ -787,7 +802,8 @@ impl Implicit {
         true
     }
 
-    /// The inverse diagonal of `A` (a direction of springs at a time, vectorised).
+    /// The inverse diagonal of `A` (a direction of springs at a time, vectorised), with each
+    /// sliding contact's drag.
     fn precondition(&mut self, sys: &System<'_>) {
         let (nx, nz) = (sys.nx, sys.nz);
         let mut h = std::mem::take(&mut self.diag_base);
@@ -806,9 +822,11 @@ impl Implicit {
                 d += g * g * self.gas[r];
             }
             h.set(a, d);
-            self.inv_diag.set(a, Vec3::ONE / d);
         }
         self.diag_base = h;
+        for a in 0..nx * nz {
+            self.precondition_one(a);
+        }
     }
 
     /// The inverse diagonal at particle `k` after its constraint changed (a slide's drag).
@@ -876,17 +894,10 @@ impl Implicit {
                 Dir::Diag => (slot(1, 1), slot(-1, -1)),
                 Dir::Anti => (slot(-1, 1), slot(1, -1)),
             };
-            let set = match dir {
-                Dir::Right => &self.springs.right,
-                Dir::Down => &self.springs.down,
-                Dir::Diag => &self.springs.diag,
-                Dir::Anti => &self.springs.anti,
-            };
+            let set = self.springs.get(dir);
             for e in run {
                 let d = set.d.get(e);
-                let h = (DMat3::from_diagonal(Vec3::splat(set.ks[e]))
-                    + DMat3::from_cols(d * d.x, d * d.y, d * d.z) * set.kd[e])
-                    * dt2;
+                let h = (DMat3::from_diagonal(Vec3::splat(set.ks[e])) + outer(d) * set.kd[e]) * dt2;
                 let (a, b) = (e + oa, e + ob);
                 blocks[a][CENTRE] += h;
                 blocks[b][CENTRE] += h;
@@ -896,9 +907,7 @@ impl Implicit {
         }
         let proj = |c: Constraint| match c {
             Constraint::Free => DMat3::IDENTITY,
-            Constraint::Normal { n, .. } => {
-                DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z)
-            }
+            Constraint::Normal { n, .. } => DMat3::IDENTITY - outer(n),
             Constraint::Stick { .. } | Constraint::Fixed(_) => DMat3::ZERO,
         };
         for a in 0..nx * nz {
@@ -907,7 +916,7 @@ impl Implicit {
             let sa = proj(c);
             let mut centre = blocks[a][CENTRE] + DMat3::from_diagonal(Vec3::splat(self.inertia[a]));
             if let Constraint::Normal { n, drag, .. } = c {
-                centre += (DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z)) * drag;
+                centre += (DMat3::IDENTITY - outer(n)) * drag;
             }
             let free = c == Constraint::Free;
             blocks[a][CENTRE] = if free {
@@ -1213,11 +1222,6 @@ impl Implicit {
             // The strain limit: springs this solve takes past it go onto their stiff branch.
             if self.tighten(model, &state.x, dt) {
                 self.precondition(&sys);
-                for k in 0..n {
-                    if matches!(self.constraints[k], Constraint::Normal { .. }) {
-                        self.precondition_one(k);
-                    }
-                }
                 changed = true;
             }
             if !changed {
@@ -1313,6 +1317,12 @@ impl Implicit {
         );
         moved
     }
+}
+
+/// `d d^T`.
+#[inline]
+fn outer(d: Vec3) -> DMat3 {
+    DMat3::from_cols(d * d.x, d * d.y, d * d.z)
 }
 
 /// Fewest particles for the multigrid preconditioner (below, the diagonal is as fast).

@@ -50,8 +50,8 @@ pub struct Model {
     pub gravity: Vec3,
     /// Velocity damping rate, 1/s.
     pub damping: Real,
-    /// Largest relative stretch of a structural or shear spring (`[cloth] strain_limit`, 0.1 =
-    /// 10 %; 0 = no limit). The explicit integrator enforces it after the step (Provot, see
+    /// Largest relative stretch of a structural or shear spring (`[cloth] strain_limit`;
+    /// dimensionless, 0.1 = 10 %; default 0 = no limit; valid [0, 10]). The explicit integrator enforces it after the step (Provot, see
     /// [`crate::constraints`]); the implicit one inside its solve, as a spring that stiffens
     /// beyond it (`integrate/implicit.rs`).
     pub strain_limit: Real,
