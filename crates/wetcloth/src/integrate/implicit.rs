@@ -228,12 +228,12 @@ impl SpringSet {
             // Beyond the strain limit the spring stiffens by `kl`.
             let over = (len - lmax).max(0.0);
             taut[e] = over > 0.0;
-            let (f, along, across) = linearise(k, l, kl, safe, over, over > 0.0);
+            let (f, hs, hd) = linearise(k, l, kl, safe, over, over > 0.0);
             dx[e] = if live { ux } else { 0.0 };
             dy[e] = if live { uy } else { 0.0 };
             dz[e] = if live { uz } else { 0.0 };
-            ks[e] = if live { across } else { 0.0 };
-            kd[e] = if live { along - across } else { 0.0 };
+            ks[e] = if live { hs } else { 0.0 };
+            kd[e] = if live { hd } else { 0.0 };
             wx[e] = if live { ux * f } else { 0.0 };
             wy[e] = if live { uy * f } else { 0.0 };
             wz[e] = if live { uz * f } else { 0.0 };
@@ -278,10 +278,8 @@ impl SpringSet {
             let change = u * (limit.stiffness * (len - limit.length));
             df.set(a, df.get(a) + change);
             df.set(b, df.get(b) - change);
-            let (_, along, across) =
+            (_, self.ks[e], self.kd[e]) =
                 linearise(k, l, limit.stiffness, len, len - limit.length, true);
-            self.ks[e] = across;
-            self.kd[e] = along - across;
             self.taut[e] = true;
             count += 1;
         }
@@ -385,15 +383,17 @@ impl SpringSet {
 
 /// A spring of stiffness `k` (N/m) and rest length `l` (m) at length `len` (m), `over` (m)
 /// along its strain limit's stiff branch of extra stiffness `kl` (N/m) when `stiff`: its
-/// tension (N), its stiffness along itself and across (N/m; across, the tension over the
-/// length, none when compressed).
+/// tension (N) and the two stiffnesses of `H_e = ks I + kd d d^T` (N/m; `ks`, the tension over
+/// the length, none when compressed; `ks + kd` the stiffness along the spring).
 #[inline(always)]
 fn linearise(k: Real, l: Real, kl: Real, len: Real, over: Real, stiff: bool) -> (Real, Real, Real) {
     if stiff {
         let f = k * (len - l) + kl * over;
-        (f, k + kl, (f / len).max(0.0))
+        let ks = (f / len).max(0.0);
+        (f, ks, k + kl - ks)
     } else {
-        (k * (len - l), k, k * (1.0 - l / len).max(0.0))
+        let s = (1.0 - l / len).max(0.0);
+        (k * (len - l), k * s, k * (1.0 - s))
     }
 }
 
