@@ -18,10 +18,12 @@
 //!   symmetric operator and a valid conjugate-gradient preconditioner.
 //! - **Coarsest grid.** Solved exactly by a dense Cholesky factorisation (at most 48 unknowns).
 //!
-//! Everything runs in node order on one thread: the same bits for any thread count.
+//! Everything runs in node order on one thread: the same bits for any thread count. The cycle
+//! runs in single precision (SIMD lanes of four; its result only preconditions a solve carried
+//! out in double).
 
 use crate::math::{Real, Vec3};
-use glam::DMat3;
+use glam::{DMat3, Mat3A as Mat3, Vec3A as Vec3f};
 
 /// Largest side, in nodes, of the coarsest grid (solved directly).
 pub const COARSEST_SIDE: usize = 4;
@@ -53,18 +55,39 @@ pub(crate) fn neighbours(
 }
 
 /// One grid's matrix and work vectors.
+///
+/// The matrix is built in double precision (`a`, all 9 blocks of a node) and cycled in single
+/// precision, stored once per pair of neighbours: each node's own block, its inverse and its
+/// blocks to the four neighbours after it in node order (an earlier neighbour's block is the
+/// transpose of that neighbour's block to this node, the matrix being symmetric). That is 216
+/// bytes a node instead of 720, so a 50 x 50 grid's cycle reads its matrix from the core's
+/// own cache instead of the shared one.
 #[derive(Clone, Debug, Default)]
 struct Level {
     nx: usize,
     nz: usize,
     /// Per node, its 9 blocks: `a[node][slot(di, dj)]` couples it to node `(i + di, j + dj)`.
     a: Vec<[DMat3; 9]>,
+    /// Own block, in single precision.
+    diag: Vec<Mat3>,
     /// Inverse of each node's own block.
-    inv: Vec<DMat3>,
+    inv: Vec<Mat3>,
+    /// Blocks to the later neighbours, [`LATER`] order.
+    later: Vec<[Mat3; 4]>,
     /// Solution, right-hand side and residual.
-    x: Vec<Vec3>,
-    b: Vec<Vec3>,
-    r: Vec<Vec3>,
+    x: Vec<Vec3f>,
+    b: Vec<Vec3f>,
+    r: Vec<Vec3f>,
+}
+
+/// The four neighbours after a node in node order, as grid offsets `(di, dj)`: the blocks
+/// [`Level::later`] keeps.
+const LATER: [(isize, isize); 4] = [(1, 0), (-1, 1), (0, 1), (1, 1)];
+
+/// `M^T v`.
+#[inline(always)]
+fn transpose_mul(m: &Mat3, v: Vec3f) -> Vec3f {
+    Vec3f::new(m.x_axis.dot(v), m.y_axis.dot(v), m.z_axis.dot(v))
 }
 
 impl Level {
@@ -74,82 +97,181 @@ impl Level {
         self.nz = nz;
         self.a.clear();
         self.a.resize(n, [DMat3::ZERO; 9]);
-        self.inv.resize(n, DMat3::IDENTITY);
-        self.x.resize(n, Vec3::ZERO);
-        self.b.resize(n, Vec3::ZERO);
-        self.r.resize(n, Vec3::ZERO);
+        self.diag.resize(n, Mat3::IDENTITY);
+        self.inv.resize(n, Mat3::IDENTITY);
+        self.later.resize(n, [Mat3::ZERO; 4]);
+        self.x.resize(n, Vec3f::ZERO);
+        self.b.resize(n, Vec3f::ZERO);
+        self.r.resize(n, Vec3f::ZERO);
     }
 
-    /// `sum over the neighbours b of a (not a itself) of A_ab x_b`: all of them, or with
-    /// `half` only those before `a` (`Some(true)`) or after it (`Some(false)`) in node order.
-    #[inline(always)]
-    fn neighbours(&self, a: usize, half: Option<bool>) -> Vec3 {
-        let (nx, nz) = (self.nx, self.nz);
-        let (i, j) = (a % nx, a / nx);
-        let blocks = &self.a[a];
-        let (before, after) = (half != Some(false), half != Some(true));
-        if i > 0 && j > 0 && i + 1 < nx && j + 1 < nz {
-            // An inner node: rows j - 1, j, j + 1 as slices.
-            let mut s = Vec3::ZERO;
-            if before {
-                let up = &self.x[a - nx - 1..a - nx + 2];
-                s += blocks[0] * up[0] + blocks[1] * up[1] + blocks[2] * up[2];
-                s += blocks[3] * self.x[a - 1];
-            }
-            if after {
-                let down = &self.x[a + nx - 1..a + nx + 2];
-                s += blocks[5] * self.x[a + 1];
-                s += blocks[6] * down[0] + blocks[7] * down[1] + blocks[8] * down[2];
-            }
-            return s;
-        }
-        let mut s = Vec3::ZERO;
-        for dj in -1isize..=1 {
-            let jj = j as isize + dj;
-            if jj < 0 || jj >= nz as isize {
-                continue;
-            }
-            for di in -1isize..=1 {
-                let ii = i as isize + di;
-                let earlier = dj < 0 || (dj == 0 && di < 0);
-                if (di == 0 && dj == 0)
-                    || ii < 0
-                    || ii >= nx as isize
-                    || (earlier && !before)
-                    || (!earlier && !after)
-                {
-                    continue;
-                }
-                s += blocks[slot(di, dj)] * self.x[jj as usize * nx + ii as usize];
+    /// The single-precision copy the cycle reads (after `a` and its inverses are final).
+    fn compact(&mut self) {
+        let nx = self.nx;
+        for (k, blocks) in self.a.iter().enumerate() {
+            self.diag[k] = Mat3::from(blocks[CENTRE].as_mat3());
+            let (i, j) = (k % nx, k / nx);
+            for (t, &(di, dj)) in LATER.iter().enumerate() {
+                let inside = i as isize + di >= 0 && (i as isize + di) < nx as isize;
+                let inside = inside && j as isize + dj < self.nz as isize;
+                self.later[k][t] = if inside {
+                    Mat3::from(blocks[slot(di, dj)].as_mat3())
+                } else {
+                    Mat3::ZERO
+                };
             }
         }
-        s
+    }
+
+    /// The matrices, read-only, beside the vectors the sweeps write.
+    fn split(&mut self) -> (Mats<'_>, &mut [Vec3f], &[Vec3f], &mut [Vec3f]) {
+        let m = Mats {
+            nx: self.nx,
+            diag: &self.diag,
+            inv: &self.inv,
+            later: &self.later,
+        };
+        (m, &mut self.x, &self.b, &mut self.r)
     }
 
     /// A forward Gauss-Seidel sweep from `x = 0` and the residual `r = b - A x` after it: a
     /// node's later neighbours are still zero when it is solved, so the sweep needs only its
-    /// earlier ones, and the residual only its later ones (half the work of a sweep and a
-    /// residual each over the whole stencil).
+    /// earlier ones, and the residual only its later ones (half a stencil each).
     fn smooth_from_zero(&mut self) {
-        let n = self.nx * self.nz;
-        for a in 0..n {
-            let s = self.b[a] - self.neighbours(a, Some(true));
-            self.x[a] = self.inv[a] * s;
-            // Kept for the residual: b - (earlier neighbours).
-            self.r[a] = s;
-        }
-        for a in 0..n {
-            let later = self.neighbours(a, Some(false));
-            self.r[a] = self.r[a] - self.a[a][CENTRE] * self.x[a] - later;
-        }
+        let (m, x, b, r) = self.split();
+        forward_from_zero(&m, x, b, r);
+        residual(&m, x, r);
     }
 
     /// One backward Gauss-Seidel sweep.
     fn sweep_backwards(&mut self) {
-        let n = self.nx * self.nz;
-        for a in (0..n).rev() {
-            let s = self.b[a] - self.neighbours(a, None);
-            self.x[a] = self.inv[a] * s;
+        let (m, x, b, _) = self.split();
+        backward(&m, x, b);
+    }
+}
+
+/// A level's matrices, read-only, for sweeps over slices of its rows.
+#[derive(Clone, Copy)]
+struct Mats<'a> {
+    nx: usize,
+    diag: &'a [Mat3],
+    inv: &'a [Mat3],
+    later: &'a [[Mat3; 4]],
+}
+
+impl<'a> Mats<'a> {
+    /// `A_ab x_b` for the neighbour `b = a - 1`.
+    #[inline(always)]
+    fn left(&self, a: usize, x: Vec3f) -> Vec3f {
+        transpose_mul(&self.later[a - 1][0], x)
+    }
+
+    /// `A_ab x_b` for the neighbour `b = a + 1`.
+    #[inline(always)]
+    fn right(&self, a: usize, x: Vec3f) -> Vec3f {
+        self.later[a][0] * x
+    }
+
+    /// `sum of A_ab x_b` over node `a`'s (up to three) neighbours in the row above, whose
+    /// values are `up` (that row).
+    #[inline(always)]
+    fn up(&self, a: usize, up: &[Vec3f]) -> Vec3f {
+        let (nx, i) = (self.nx, a % self.nx);
+        let above = |b: usize| b + a - nx - i;
+        let mut s = transpose_mul(&self.later[above(i)][2], up[i]);
+        if i > 0 {
+            s += transpose_mul(&self.later[above(i - 1)][3], up[i - 1]);
+        }
+        if i + 1 < nx {
+            s += transpose_mul(&self.later[above(i + 1)][1], up[i + 1]);
+        }
+        s
+    }
+
+    /// `sum of A_ab x_b` over node `a`'s neighbours in the row below, whose values are
+    /// `down` (that row).
+    #[inline(always)]
+    fn down(&self, a: usize, down: &[Vec3f]) -> Vec3f {
+        let (l, i) = (&self.later[a], a % self.nx);
+        let mut s = l[2] * down[i];
+        if i > 0 {
+            s += l[1] * down[i - 1];
+        }
+        if i + 1 < self.nx {
+            s += l[3] * down[i + 1];
+        }
+        s
+    }
+}
+
+/// Forward Gauss-Seidel from `x = 0`, keeping `b - (earlier neighbours' share)` in `r`.
+fn forward_from_zero(m: &Mats<'_>, x: &mut [Vec3f], b: &[Vec3f], r: &mut [Vec3f]) {
+    let nx = m.nx;
+    for j in 0..x.len() / nx {
+        let (done, row) = x.split_at_mut(j * nx);
+        let row = &mut row[..nx];
+        let up = (j > 0).then(|| &done[(j - 1) * nx..]);
+        for i in 0..nx {
+            let a = j * nx + i;
+            let mut t = b[a];
+            if let Some(up) = up {
+                t -= m.up(a, up);
+            }
+            if i > 0 {
+                t -= m.left(a, row[i - 1]);
+            }
+            row[i] = m.inv[a] * t;
+            r[a] = t;
+        }
+    }
+}
+
+/// `r -= D x + (later neighbours' share)`: a node's later neighbours are its right one and the
+/// row below.
+fn residual(m: &Mats<'_>, x: &[Vec3f], r: &mut [Vec3f]) {
+    let nx = m.nx;
+    let rows = x.len() / nx;
+    for j in 0..rows {
+        let down = (j + 1 < rows).then(|| &x[(j + 1) * nx..]);
+        for i in 0..nx {
+            let a = j * nx + i;
+            let mut t = m.diag[a] * x[a];
+            if i + 1 < nx {
+                t += m.right(a, x[a + 1]);
+            }
+            if let Some(down) = down {
+                t += m.down(a, down);
+            }
+            r[a] -= t;
+        }
+    }
+}
+
+/// Backward Gauss-Seidel, last node to first, over the whole stencil.
+fn backward(m: &Mats<'_>, x: &mut [Vec3f], b: &[Vec3f]) {
+    let nx = m.nx;
+    let rows = x.len() / nx;
+    for j in (0..rows).rev() {
+        let (before, rest) = x.split_at_mut(j * nx);
+        let (row, after) = rest.split_at_mut(nx);
+        let up = (j > 0).then(|| &before[(j - 1) * nx..]);
+        let down = (j + 1 < rows).then_some(&after[..]);
+        for i in (0..nx).rev() {
+            let a = j * nx + i;
+            let mut t = b[a];
+            if let Some(up) = up {
+                t -= m.up(a, up);
+            }
+            if let Some(down) = down {
+                t -= m.down(a, down);
+            }
+            if i > 0 {
+                t -= m.left(a, row[i - 1]);
+            }
+            if i + 1 < nx {
+                t -= m.right(a, row[i + 1]);
+            }
+            row[i] = m.inv[a] * t;
         }
     }
 }
@@ -215,9 +337,10 @@ impl Multigrid {
             .iter()
             .map(|l| {
                 l.a.capacity() * std::mem::size_of::<[DMat3; 9]>()
-                    + l.inv.capacity() * std::mem::size_of::<DMat3>()
+                    + (l.diag.capacity() + l.inv.capacity()) * std::mem::size_of::<Mat3>()
+                    + l.later.capacity() * std::mem::size_of::<[Mat3; 4]>()
                     + (l.x.capacity() + l.b.capacity() + l.r.capacity())
-                        * std::mem::size_of::<Vec3>()
+                        * std::mem::size_of::<Vec3f>()
             })
             .sum::<usize>()
             + self.chol.capacity() * 8
@@ -229,6 +352,7 @@ impl Multigrid {
         loop {
             let (nx, nz) = (self.levels[l].nx, self.levels[l].nz);
             invert_diagonal(&mut self.levels[l]);
+            self.levels[l].compact();
             if nx <= COARSEST_SIDE && nz <= COARSEST_SIDE {
                 break;
             }
@@ -248,11 +372,11 @@ impl Multigrid {
     pub fn apply(&mut self, b: impl Fn(usize) -> Vec3, mut x: impl FnMut(usize, Vec3)) {
         let n = self.levels[0].nx * self.levels[0].nz;
         for a in 0..n {
-            self.levels[0].b[a] = b(a);
+            self.levels[0].b[a] = b(a).as_vec3().into();
         }
         self.cycle(0);
         for a in 0..n {
-            x(a, self.levels[0].x[a]);
+            x(a, self.levels[0].x[a].as_dvec3());
         }
     }
 
@@ -268,7 +392,7 @@ impl Multigrid {
         let (fine, rest) = self.levels.split_at_mut(l + 1);
         let (f, c) = (&fine[l], &mut rest[0]);
         // Restriction: b_c = P^T r.
-        c.b.fill(Vec3::ZERO);
+        c.b.fill(Vec3f::ZERO);
         for j in 0..f.nz {
             let (pz, nzp) = parents(j, f.nz);
             for i in 0..f.nx {
@@ -276,7 +400,7 @@ impl Multigrid {
                 let r = f.r[j * f.nx + i];
                 for &(jc, wz) in &pz[..nzp] {
                     for &(ic, wx) in &px[..nxp] {
-                        c.b[jc * c.nx + ic] += r * (wx * wz);
+                        c.b[jc * c.nx + ic] += r * (wx * wz) as f32;
                     }
                 }
             }
@@ -289,10 +413,10 @@ impl Multigrid {
             let (pz, nzp) = parents(j, f.nz);
             for i in 0..f.nx {
                 let (px, nxp) = parents(i, f.nx);
-                let mut e = Vec3::ZERO;
+                let mut e = Vec3f::ZERO;
                 for &(jc, wz) in &pz[..nzp] {
                     for &(ic, wx) in &px[..nxp] {
-                        e += c.x[jc * c.nx + ic] * (wx * wz);
+                        e += c.x[jc * c.nx + ic] * (wx * wz) as f32;
                     }
                 }
                 f.x[j * f.nx + i] += e;
@@ -330,10 +454,12 @@ impl Multigrid {
         let lv = self.levels.last_mut().expect("built");
         let y = &mut self.y;
         y.clear();
-        y.extend(lv.b.iter().flat_map(|b| b.to_array()));
+        y.extend(lv.b.iter().flat_map(|b| b.as_dvec3().to_array()));
         cholesky_solve(&self.chol, m, y);
         for (a, x) in lv.x.iter_mut().enumerate() {
-            *x = Vec3::new(y[3 * a], y[3 * a + 1], y[3 * a + 2]);
+            *x = Vec3::new(y[3 * a], y[3 * a + 1], y[3 * a + 2])
+                .as_vec3()
+                .into();
         }
     }
 }
@@ -384,16 +510,19 @@ fn invert_diagonal(lv: &mut Level) {
         let d = blocks[CENTRE];
         let det = d.determinant();
         let scale = d.x_axis.x.abs() * d.y_axis.y.abs() * d.z_axis.z.abs();
-        *inv = if det.is_finite() && det > 1e-12 * scale {
-            d.inverse()
-        } else {
-            let safe = |v: Real| if v > 0.0 { 1.0 / v } else { 0.0 };
-            DMat3::from_diagonal(Vec3::new(
-                safe(d.x_axis.x),
-                safe(d.y_axis.y),
-                safe(d.z_axis.z),
-            ))
-        };
+        *inv = Mat3::from(
+            (if det.is_finite() && det > 1e-12 * scale {
+                d.inverse()
+            } else {
+                let safe = |v: Real| if v > 0.0 { 1.0 / v } else { 0.0 };
+                DMat3::from_diagonal(Vec3::new(
+                    safe(d.x_axis.x),
+                    safe(d.y_axis.y),
+                    safe(d.z_axis.z),
+                ))
+            })
+            .as_mat3(),
+        );
     }
 }
 
@@ -549,7 +678,8 @@ mod tests {
     }
 
     /// The V-cycle is symmetric: `u . V w = w . V u` (a conjugate-gradient preconditioner
-    /// must be).
+    /// must be), to the single precision it runs in (a wrong sweep order or a restriction
+    /// that is not the prolongation's transpose is off in the first digits).
     #[test]
     fn v_cycle_is_symmetric() {
         let (nx, nz) = (23, 12);
@@ -569,6 +699,6 @@ mod tests {
         mg.apply(|k| w[k], |k, v| vw[k] = v);
         let a: Real = w.iter().zip(&vu).map(|(a, b)| a.dot(*b)).sum();
         let b: Real = u.iter().zip(&vw).map(|(a, b)| a.dot(*b)).sum();
-        assert!((a - b).abs() <= 1e-10 * a.abs().max(b.abs()), "{a} vs {b}");
+        assert!((a - b).abs() <= 1e-5 * a.abs().max(b.abs()), "{a} vs {b}");
     }
 }
