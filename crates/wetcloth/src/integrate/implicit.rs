@@ -13,7 +13,11 @@
 //! spring so that `H` stays positive semi-definite), and for each sealed region of air `r`
 //! (`air::region`: the thesis' bubble, or a pocket) its gas spring, the rank-one term with
 //! `k_r = P_r / V_r` (Pa/m^3, minus Boyle's `dP/dV`) and `g_r` the pressure force per pascal of
-//! its particles (`S N_i`, eq. 3.7; `dV/dx_i` as the thesis spreads it). The system matrix is
+//! its particles (`S N_i`, eq. 3.7; `dV/dx_i` as the thesis spreads it). That spread is not the
+//! gradient of the volume the pressure comes from (eq. 3.10 gives a border particle half an
+//! inner one's share), so for the thesis' bubble the step also measures the volume at its end
+//! and shifts the pressure by the gas spring times the miss beyond `g . v+ dt`, solving again
+//! while the shift moves it by more than 0.01 Pa. The system matrix is
 //! symmetric positive definite; the conjugate gradient applies it row by row (the springs of
 //! each particle's 8 neighbours, then one dot product per region for the rank-one terms), never
 //! forming it. Its preconditioner is the diagonal where most particles are held (a cloth
@@ -29,10 +33,11 @@
 //! residual `(A v+ - b) / dt` at its particle: for a hand, the hand's force (thesis 3.2 step 3);
 //! for a contact, the normal force of eq. 3.4. A contact that would have to pull is released
 //! and a particle that would land inside a collider is constrained, and the system solved
-//! again. Coulomb friction (eq. 3.5) then takes at most `mu |F_n| dt / m` off the tangential
-//! velocity: if that stops it, the particle sticks; otherwise it slides with the
-//! kinetic-friction deceleration, so on a slope of angle theta `a = g (sin theta - mu cos
-//! theta)` exactly, at any step.
+//! again. Coulomb friction (eq. 3.5) is in the solve: a touching particle starts held (its
+//! tangential velocity zero) and slides once the force that holds it leaves the cone
+//! `|F_t| <= mu F_n`; a slide feels kinetic friction as a drag `mu F_n / |v_t|` against its
+//! own velocity (see [`Constraint::Normal`]), so on a slope of angle theta it accelerates at
+//! `g (sin theta - mu cos theta)` at any step, and friction never does positive work.
 //!
 //! A strain limit (`[cloth] strain_limit`) is part of the springs: past `(1 + limit)` times its
 //! rest length a spring is [`LIMIT_STIFFENING`] times stiffer, so the solve (and the friction
@@ -479,6 +484,8 @@ pub(crate) struct Implicit {
     force: Soa,
     /// Pressure force per pascal of each particle, m^2 (`S N_i`).
     per_pascal: Soa,
+    /// End-of-step positions of the current velocities (for the bubble's volume).
+    end: Soa,
     /// The air's regions.
     regions: Regions,
     /// Each region's gas-spring term `dt^2 k_r`, and scratch for its dot product.
@@ -538,6 +545,7 @@ impl Implicit {
             },
             force: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
+            end: Soa::zeros(n),
             regions: Regions::default(),
             gas: Vec::new(),
             dots: Vec::new(),
@@ -1073,6 +1081,40 @@ impl Implicit {
         it
     }
 
+    /// How much the bubble's volume (eq. 3.10) at the end of the step, with the current
+    /// velocities, differs from its linear prediction `sum of g_k . v_k dt` (m^3). The
+    /// thesis' pressure force `g_k = S N_k` is not the volume's gradient (a border particle's
+    /// share of the volume is half an inner one's, its force the same), so a lift that raises
+    /// the middle while the rim comes down changes the volume otherwise than `g` predicts.
+    fn volume_miss(&mut self, model: &Model, x: &Soa, dt: Real) -> Real {
+        let Some(plane) = model.sticking else {
+            return 0.0;
+        };
+        let n = x.len();
+        let end = &mut self.end;
+        end.x.resize(n, 0.0);
+        end.y.resize(n, 0.0);
+        end.z.resize(n, 0.0);
+        let mut linear = 0.0;
+        for k in 0..n {
+            let v = self.v.get(k);
+            end.set(k, x.get(k) + v * dt);
+            linear += self.per_pascal.get(k).dot(v) * dt;
+        }
+        let now = crate::air::volume(&model.grid, x, plane, model.radius);
+        let then = crate::air::volume(&model.grid, end, plane, model.radius);
+        then - now - linear
+    }
+
+    /// Adds to the right-hand side the pressure force of a drop `dp` (Pa) of the bubble's
+    /// pressure: `-dp g_k dt` on every particle.
+    fn shift_pressure(&mut self, dp: Real, dt: Real) {
+        for k in 0..self.rhs.len() {
+            let f = self.rhs.get(k) - self.per_pascal.get(k) * (dp * dt);
+            self.rhs.set(k, f);
+        }
+    }
+
     /// One step of `dt` s (see the module docs). Returns the largest squared distance (m^2) of
     /// a new position of a particle no hand holds from `fused.reference`.
     pub fn step(
@@ -1137,6 +1179,18 @@ impl Implicit {
         };
         self.precondition(&sys);
         self.iterations = 0;
+        // The thesis bubble's gas spring (Pa/m^3), whose pressure the solve predicts from the
+        // volume at the step's end: its miss beyond the linear prediction (`volume_miss`) shifts
+        // the pressure, and the step is solved again while the shift moves.
+        let stiff = match (&air.model, regions.list.first()) {
+            (crate::air::AirModel::Thesis(_), Some(r)) if implicit_air => r.stiffness,
+            _ => 0.0,
+        };
+        let mut miss = 0.0;
+        if stiff > 0.0 {
+            miss = self.volume_miss(model, &state.x, dt);
+            self.shift_pressure(stiff * miss, dt);
+        }
         for pass in 0..CONTACT_PASSES {
             let last = pass + 1 == CONTACT_PASSES;
             let tolerance = if last {
@@ -1217,6 +1271,15 @@ impl Implicit {
                         }
                     }
                     Constraint::Fixed(_) => {}
+                }
+            }
+            if stiff > 0.0 {
+                let now = self.volume_miss(model, &state.x, dt);
+                let dp = stiff * (now - miss);
+                if dp.abs() > PRESSURE_TOLERANCE {
+                    self.shift_pressure(dp, dt);
+                    miss = now;
+                    changed = true;
                 }
             }
             // The strain limit: springs this solve takes past it go onto their stiff branch.
@@ -1303,7 +1366,7 @@ impl Implicit {
             && let Some(r) = self.regions.list.first()
         {
             b.applied_pressure = if implicit_air {
-                (r.pressure - r.stiffness * volume_change).max(0.0)
+                (r.pressure - r.stiffness * (volume_change + miss)).max(0.0)
             } else {
                 r.pressure
             };
@@ -1318,6 +1381,9 @@ impl Implicit {
         moved
     }
 }
+
+/// Pressure change (Pa) of the bubble's volume correction that calls for another solve.
+const PRESSURE_TOLERANCE: Real = 1e-2;
 
 /// `d d^T`.
 #[inline]
