@@ -138,3 +138,18 @@ fn fine_pinch_lifts_a_cross_shaped_tent() {
     }
     assert!(stretch < 0.10, "threads stretch {stretch}");
 }
+
+/// A known defect, kept here to run with `--ignored`: `scenes/pockets-middle.toml` with the
+/// implicit integrator at 1/600 s blows up at about 0.59 s, once its 10 % strain limit binds
+/// against the vacuum pocket under the hand (docs/integrators.md, known limits). The large-step
+/// target is every shipped scene at 1/600 s without a blow-up; this one does not meet it yet.
+#[test]
+#[ignore = "known defect: blows up at 0.59 s (docs/integrators.md, known limits)"]
+fn pockets_middle_runs_implicitly_at_1_600_s() {
+    let mut cfg = scene("pockets-middle.toml").config;
+    cfg.simulation.integrator = wetcloth::Integrator::Implicit;
+    cfg.simulation.time_step = 1.0 / 600.0;
+    let steps = (cfg.simulation.duration * 600.0).round() as u64;
+    let mut sim = Simulation::new(cfg).unwrap();
+    sim.advance(steps).expect("no blow-up");
+}
