@@ -425,7 +425,6 @@ impl Pockets {
     fn spread(&mut self, model: &Model, pressures: &[Real]) {
         self.spread_bare = pressures.is_empty();
         let (nx, nz) = (model.grid.nx, model.grid.nz);
-        let m = nx - 1;
         for j in 0..nz {
             for i in 0..nx {
                 let k = j * nx + i;
@@ -433,21 +432,7 @@ impl Pockets {
                 self.delta_p[k] = if q != NONE {
                     pressures[q as usize]
                 } else if self.sealed[k] {
-                    let mut sum = 0.0;
-                    let mut count = 0.0;
-                    for (ci, cj) in [(i, j), (i.wrapping_sub(1), j), (i, j.wrapping_sub(1))]
-                        .into_iter()
-                        .chain([(i.wrapping_sub(1), j.wrapping_sub(1))])
-                    {
-                        if ci < m && cj < nz - 1 {
-                            count += 1.0;
-                            let cq = self.cell_pocket[cj * m + ci];
-                            if cq != NONE {
-                                sum += pressures[cq as usize];
-                            }
-                        }
-                    }
-                    let air = if count > 0.0 { sum / count } else { 0.0 };
+                    let air = sealed_share(&self.cell_pocket, nx, nz, i, j, |q| pressures[q]);
                     // The water film holds the sealed particle on the surface.
                     air - model.wet_adhesion * model.wetness[k]
                 } else {
@@ -936,6 +921,36 @@ pub fn surface_cell_volumes(
         // Counter-clockwise seen from above (+y for a cloth lying in x-z): (a, d, b), (a, c, d).
         *v = frustum(a, d, b) + frustum(a, cc, d);
     }
+}
+
+/// The air's pressure difference (Pa) on the sealed particle `(i, j)` of an `nx` x `nz` grid:
+/// the mean over the (up to four) cells around it of their pocket's difference (`pressure` of
+/// the pocket's index), 0 for a cell in no pocket. The explicit step spreads the pockets'
+/// pressures so; the implicit one, the vacuums' (`air::region`).
+pub(crate) fn sealed_share(
+    cell_pocket: &[u32],
+    nx: usize,
+    nz: usize,
+    i: usize,
+    j: usize,
+    pressure: impl Fn(usize) -> Real,
+) -> Real {
+    let m = nx - 1;
+    let mut sum = 0.0;
+    let mut count = 0.0;
+    for (ci, cj) in [(i, j), (i.wrapping_sub(1), j), (i, j.wrapping_sub(1))]
+        .into_iter()
+        .chain([(i.wrapping_sub(1), j.wrapping_sub(1))])
+    {
+        if ci < m && cj < nz - 1 {
+            count += 1.0;
+            let cq = cell_pocket[cj * m + ci];
+            if cq != NONE {
+                sum += pressure(cq as usize);
+            }
+        }
+    }
+    if count > 0.0 { sum / count } else { 0.0 }
 }
 
 #[cfg(test)]

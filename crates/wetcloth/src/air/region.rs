@@ -89,13 +89,25 @@ impl AirModel {
                     .push(gas_spring(pa, b.trapped_air, b.volume, model.cloth_area));
             }
             AirModel::Pockets(p) => {
-                if p.sealed.iter().any(|&s| s) && model.wet_adhesion > 0.0 {
-                    out.extra.extend(
-                        p.sealed
-                            .iter()
-                            .zip(&model.wetness)
-                            .map(|(&s, &w)| if s { -model.wet_adhesion * w } else { 0.0 }),
-                    );
+                // A sealed particle in no pocket: the water film's pull, and its share of the
+                // vacuums around it (the mean over its cells, as the explicit step spreads the
+                // pockets' pressures), so that a particle joining a vacuum takes on its load a
+                // cell at a time. (A pocket of air is a gas spring; its share stays out.)
+                if p.sealed.iter().any(|&s| s) {
+                    let (nx, nz) = (model.grid.nx, model.grid.nz);
+                    let vacuum = |q: usize| {
+                        let pocket = &p.pockets[q];
+                        if pocket.amount > 0.0 { 0.0 } else { -pa }
+                    };
+                    out.extra.extend((0..nx * nz).map(|k| {
+                        if p.sealed[k] && p.particle_pocket[k] == pockets::NONE {
+                            let (i, j) = (k % nx, k / nx);
+                            pockets::sealed_share(&p.cell_pocket, nx, nz, i, j, vacuum)
+                                - model.wet_adhesion * model.wetness[k]
+                        } else {
+                            0.0
+                        }
+                    }));
                 }
                 out.list.extend(
                     p.pockets

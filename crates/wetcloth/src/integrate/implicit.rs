@@ -484,6 +484,9 @@ pub(crate) struct Implicit {
     force: Soa,
     /// Pressure force per pascal of each particle, m^2 (`S N_i`).
     per_pascal: Soa,
+    /// Per particle: whether the solve just taken drove it through a collider's surface (its
+    /// end-of-step position is then no guide to its springs' stretch).
+    landed: Vec<bool>,
     /// End-of-step positions of the current velocities (for the bubble's volume).
     end: Soa,
     /// The air's regions.
@@ -545,6 +548,7 @@ impl Implicit {
             },
             force: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
+            landed: vec![false; n],
             end: Soa::zeros(n),
             regions: Regions::default(),
             gas: Vec::new(),
@@ -590,6 +594,7 @@ impl Implicit {
                 &self.q,
                 &self.inv_diag,
                 &self.diag_base,
+                &self.end,
             ]
             .iter()
             .map(|s| s.heap_bytes())
@@ -599,6 +604,7 @@ impl Implicit {
             + self.gas_u.iter().map(|s| s.heap_bytes()).sum::<usize>()
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
             + self.inertia.capacity() * 8
+            + self.landed.capacity()
     }
 
     /// Springs and their linearisation, gravity, damping-free forces and the pressure force per
@@ -786,12 +792,24 @@ impl Implicit {
             f.fill(0.0);
         }
         let mut count = 0;
+        // The velocities to judge the springs by (in `z`, free between solves): a particle this
+        // solve drove through a collider's surface (a free particle under a pocket's sudden
+        // vacuum: metres a second into the table) keeps its tangential velocity but lands, as
+        // its new contact will have it, instead of stiffening every spring around it.
+        for k in 0..nx * nz {
+            let v = self.v.get(k);
+            let v = match self.constraints[k] {
+                Constraint::Stick { n, vn, .. } if self.landed[k] => v - n * n.dot(v) + n * vn,
+                _ => v,
+            };
+            self.z.set(k, v);
+        }
         for (dir, run, oa, ob) in spans(nx, nz) {
             let (k, l) = dir.constants(c);
             let limit = Limit::new(model.strain_limit, k, l);
             count += self.springs.get_mut(dir).tighten_range(
                 x,
-                &self.v,
+                &self.z,
                 dt,
                 run,
                 oa,
@@ -1207,6 +1225,8 @@ impl Implicit {
             // Release contacts that pull or slip; constrain particles that would land inside
             // a collider.
             let mut changed = false;
+            self.landed.clear();
+            self.landed.resize(n, false);
             for k in 0..n {
                 match self.constraints[k] {
                     Constraint::Normal {
@@ -1244,6 +1264,8 @@ impl Implicit {
                         let to = x + self.v.get(k) * dt;
                         if let Some(c) = landing_constraint(model, k, x, to, dt) {
                             self.constraints[k] = c;
+                            // Driven through the surface, not merely onto it.
+                            self.landed[k] = model.colliders.iter().any(|c| c.distance(to).0 < 0.0);
                             changed = true;
                         }
                     }
