@@ -160,3 +160,21 @@ fn pockets_middle_runs_implicitly_at_1_600_s() {
     let force = sim.grab_force().length();
     assert!((10.0..200.0).contains(&force), "hand {force} N");
 }
+
+/// A known defect, kept here to run with `--ignored`: `scenes/tilted-lift.toml` (a wet cloth
+/// sealed on a tilted plate mesh, strain limit 10 %) with the implicit integrator at 1/600 s
+/// ran to its end, but is on the edge of stability there: the single-precision V-cycle alone
+/// (solutions within the same tolerance) tips it into a blow-up at 1.39 s, and with the vacuum
+/// rim's share it blows up at 1.71 s, the hand pulling 40 to 60 N just before where it pulled
+/// 1 N (docs/integrators.md, known limits). The large-step target is every shipped scene at
+/// 1/600 s without a blow-up.
+#[test]
+#[ignore = "known defect: blows up at 1.71 s (docs/integrators.md, known limits)"]
+fn tilted_lift_runs_implicitly_at_1_600_s() {
+    let mut cfg = scene("tilted-lift.toml").config;
+    cfg.simulation.integrator = wetcloth::Integrator::Implicit;
+    cfg.simulation.time_step = 1.0 / 600.0;
+    let steps = (cfg.simulation.duration * 600.0).round() as u64;
+    let mut sim = Simulation::new(cfg).unwrap();
+    sim.advance(steps).expect("no blow-up");
+}
