@@ -149,12 +149,7 @@ fn fine_pinch_lifts_a_cross_shaped_tent() {
 /// the limit at the end, the hand's force that of a held lift (tens of newtons).
 #[test]
 fn pockets_middle_runs_implicitly_at_1_600_s() {
-    let mut cfg = scene("pockets-middle.toml").config;
-    cfg.simulation.integrator = wetcloth::Integrator::Implicit;
-    cfg.simulation.time_step = 1.0 / 600.0;
-    let steps = (cfg.simulation.duration * 600.0).round() as u64;
-    let mut sim = Simulation::new(cfg).unwrap();
-    sim.advance(steps).expect("no blow-up");
+    let sim = implicit_at_1_600_s("pockets-middle.toml");
     let m = sim.metrics();
     assert!(m.max_stretch < 0.12, "threads at {}", m.max_stretch);
     let force = sim.grab_force().length();
@@ -171,10 +166,17 @@ fn pockets_middle_runs_implicitly_at_1_600_s() {
 #[test]
 #[ignore = "known defect: blows up at 1.71 s (docs/integrators.md, known limits)"]
 fn tilted_lift_runs_implicitly_at_1_600_s() {
-    let mut cfg = scene("tilted-lift.toml").config;
+    implicit_at_1_600_s("tilted-lift.toml");
+}
+
+/// The shipped scene `name` run to its end with the implicit integrator at 1/600 s.
+fn implicit_at_1_600_s(name: &str) -> Simulation {
+    let mut cfg = scene(name).config;
     cfg.simulation.integrator = wetcloth::Integrator::Implicit;
     cfg.simulation.time_step = 1.0 / 600.0;
     let steps = (cfg.simulation.duration * 600.0).round() as u64;
     let mut sim = Simulation::new(cfg).unwrap();
-    sim.advance(steps).expect("no blow-up");
+    sim.advance(steps)
+        .unwrap_or_else(|e| panic!("{name} at 1/600 s: {e}"));
+    sim
 }
