@@ -1100,11 +1100,12 @@ impl Implicit {
     }
 
     /// How much the bubble's volume (eq. 3.10) at the end of the step, with the current
-    /// velocities, differs from its linear prediction `sum of g_k . v_k dt` (m^3). The
+    /// velocities, differs from its linear prediction `now + sum of g_k . v_k dt` (m^3;
+    /// `now` its volume at the step's start, the same eq. 3.10 at `x`). The
     /// thesis' pressure force `g_k = S N_k` is not the volume's gradient (a border particle's
     /// share of the volume is half an inner one's, its force the same), so a lift that raises
     /// the middle while the rim comes down changes the volume otherwise than `g` predicts.
-    fn volume_miss(&mut self, model: &Model, x: &Soa, dt: Real) -> Real {
+    fn volume_miss(&mut self, model: &Model, x: &Soa, now: Real, dt: Real) -> Real {
         let Some(plane) = model.sticking else {
             return 0.0;
         };
@@ -1119,7 +1120,6 @@ impl Implicit {
             end.set(k, x.get(k) + v * dt);
             linear += self.per_pascal.get(k).dot(v) * dt;
         }
-        let now = crate::air::volume(&model.grid, x, plane, model.radius);
         let then = crate::air::volume(&model.grid, end, plane, model.radius);
         then - now - linear
     }
@@ -1205,8 +1205,15 @@ impl Implicit {
             _ => 0.0,
         };
         let mut miss = 0.0;
+        // The bubble's volume now (m^3): measured once, the miss is measured after each solve.
+        let start_volume = match model.sticking {
+            Some(plane) if stiff > 0.0 => {
+                crate::air::volume(&model.grid, &state.x, plane, model.radius)
+            }
+            _ => 0.0,
+        };
         if stiff > 0.0 {
-            miss = self.volume_miss(model, &state.x, dt);
+            miss = self.volume_miss(model, &state.x, start_volume, dt);
             self.shift_pressure(stiff * miss, dt);
         }
         for pass in 0..CONTACT_PASSES {
@@ -1296,7 +1303,7 @@ impl Implicit {
                 }
             }
             if stiff > 0.0 {
-                let now = self.volume_miss(model, &state.x, dt);
+                let now = self.volume_miss(model, &state.x, start_volume, dt);
                 let dp = stiff * (now - miss);
                 if dp.abs() > PRESSURE_TOLERANCE {
                     self.shift_pressure(dp, dt);
