@@ -3,7 +3,8 @@
 # pinch scenes also at 1/120 s, and the explicit integrator at each scene's own step, one right
 # after the other, printing one line per run: scene, integrator, step, wall seconds, and the
 # measured quantities (peak hand force, final contact fraction, tent height, bubble volume and
-# pressure, kinetic energy). Usage: tools/implicit-scenes.sh [SCENE...] (default: scenes/*.toml).
+# pressure, kinetic energy); SKIP_VERLET=1 leaves out the explicit runs.
+# Usage: tools/implicit-scenes.sh [SCENE...] (default: scenes/*.toml).
 # Build first: cargo build --release -p wetcloth-cli
 set -u
 bin=${WETCLOTH:-target/release/wetcloth}
@@ -13,7 +14,11 @@ scenes=("$@")
 one() { # scene integrator step
     local s=$1 integ=$2 dt=$3 name
     name=$(basename "$s" .toml)-$integ-$dt
+    # The copy keeps file paths relative to the scene's own folder (a mesh collider's file).
+    local dir
+    dir=$(cd "$(dirname "$s")" && pwd)
     sed -e "s|^time_step = .*|time_step = $dt|" -e "/^integrator = /d" -e "s|^\[simulation\]|[simulation]\nintegrator = \"$integ\"|" \
+        -e "s|^\(file *= *\"\)\([^/\"][^\"]*\"\)|\1$dir/\2|" \
         "$s" > "$tmp/$name.toml"
     local t0 t1 status
     t0=$(date +%s.%N)
@@ -30,7 +35,7 @@ one() { # scene integrator step
 }
 for s in "${scenes[@]}"; do
     own=$(sed -n 's/^time_step = //p' "$s")
-    one "$s" verlet "$own"
+    [ -n "${SKIP_VERLET:-}" ] || one "$s" verlet "$own"
     one "$s" implicit 0.0016666666666666668
     case $(basename "$s") in
         air-400.toml|pinch-*.toml) one "$s" implicit 0.008333333333333333 ;;

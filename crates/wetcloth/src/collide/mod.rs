@@ -250,6 +250,22 @@ impl Collider {
         }
     }
 
+    /// The contact query of a particle moving from `prev` to `p` (world, m): `None` when the
+    /// surface is certainly farther than `reach` (m) from `p`; else the signed distance of `p`
+    /// and the unit normal on the side the particle came from. For a closed shape this is
+    /// [`Collider::distance`]; an open mesh (a two-sided sheet, where the plain distance has
+    /// no inside) answers negative for a particle the move took through it.
+    #[inline]
+    pub fn contact(&self, prev: Vec3, p: Vec3, reach: Real) -> Option<(Real, Vec3)> {
+        match &self.placement {
+            None => self.rest_contact(prev, p, reach),
+            Some(at) => {
+                let (d, n) = self.rest_contact(at.to_rest(prev), at.to_rest(p), reach)?;
+                Some((d, at.dir_to_world(n)))
+            }
+        }
+    }
+
     /// [`Collider::distance`] of the shape where the scene puts it.
     #[inline]
     pub fn rest_distance(&self, p: Vec3) -> (Real, Vec3) {

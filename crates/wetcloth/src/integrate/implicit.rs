@@ -1269,10 +1269,9 @@ impl Implicit {
                     Constraint::Free => {
                         let x = state.x.get(k);
                         let to = x + self.v.get(k) * dt;
-                        if let Some(c) = landing_constraint(model, k, x, to, dt) {
+                        if let Some((c, through)) = landing_constraint(model, k, x, to, dt) {
                             self.constraints[k] = c;
-                            // Driven through the surface, not merely onto it.
-                            self.landed[k] = model.colliders.iter().any(|c| c.distance(to).0 < 0.0);
+                            self.landed[k] = through;
                             changed = true;
                         }
                     }
@@ -1466,22 +1465,34 @@ fn contact_constraint(
 }
 
 /// The contact constraint of a free particle moving from `x` to `to` in a step of `dt` s, if it
-/// would end inside a collider.
-fn landing_constraint(model: &Model, k: usize, x: Vec3, to: Vec3, dt: Real) -> Option<Constraint> {
+/// would end inside a collider, and whether the move took it through the surface (not merely
+/// within its radius of it).
+fn landing_constraint(
+    model: &Model,
+    k: usize,
+    x: Vec3,
+    to: Vec3,
+    dt: Real,
+) -> Option<(Constraint, bool)> {
     let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
     let mut best = None;
     let mut deepest = 0.0;
     for c in &model.colliders {
-        let (d, n) = c.distance(to);
+        // Measured on the side the particle comes from: an open mesh (a two-sided sheet, whose
+        // plain distance has no inside) stops a particle driven through it as a plane does.
+        let Some((d, n)) = c.contact(x, to, model.radius) else {
+            continue;
+        };
         let depth = model.radius - d;
         if depth > deepest {
             deepest = depth;
             let gap = c.distance(x).0 - model.radius;
-            best = Some(Constraint::Stick {
+            let stick = Constraint::Stick {
                 n,
                 vn: -gap / dt,
                 mu: c.friction * scale,
-            });
+            };
+            best = Some((stick, d < 0.0));
         }
     }
     best
