@@ -926,7 +926,8 @@ pub fn surface_cell_volumes(
 /// The air's pressure difference (Pa) on the sealed particle `(i, j)` of an `nx` x `nz` grid:
 /// the mean over the (up to four) cells around it of their pocket's difference (`pressure` of
 /// the pocket's index), 0 for a cell in no pocket. The explicit step spreads the pockets'
-/// pressures so; the implicit one, the vacuums' (`air::region`).
+/// pressures so; the implicit one too, a vacuum's as a known pressure and a pocket of air's as
+/// its pressure at the step's end (`air::region`, `integrate::implicit`).
 pub(crate) fn sealed_share(
     cell_pocket: &[u32],
     nx: usize,
@@ -935,22 +936,50 @@ pub(crate) fn sealed_share(
     j: usize,
     pressure: impl Fn(usize) -> Real,
 ) -> Real {
-    let m = nx - 1;
     let mut sum = 0.0;
     let mut count = 0.0;
-    for (ci, cj) in [(i, j), (i.wrapping_sub(1), j), (i, j.wrapping_sub(1))]
-        .into_iter()
-        .chain([(i.wrapping_sub(1), j.wrapping_sub(1))])
-    {
-        if ci < m && cj < nz - 1 {
-            count += 1.0;
-            let cq = cell_pocket[cj * m + ci];
-            if cq != NONE {
-                sum += pressure(cq as usize);
-            }
+    for c in cells_around(nx, nz, i, j) {
+        count += 1.0;
+        let cq = cell_pocket[c];
+        if cq != NONE {
+            sum += pressure(cq as usize);
         }
     }
     if count > 0.0 { sum / count } else { 0.0 }
+}
+
+/// The weights of [`sealed_share`]: `each(pocket, weight)` for every cell around particle
+/// `(i, j)` that is in a pocket (a pocket met in two cells is named twice), the weight being
+/// one over the number of cells around the particle (4 inside, 2 on a border, 1 at a corner).
+pub(crate) fn sealed_weights(
+    cell_pocket: &[u32],
+    nx: usize,
+    nz: usize,
+    i: usize,
+    j: usize,
+    mut each: impl FnMut(usize, Real),
+) {
+    let count = cells_around(nx, nz, i, j).count();
+    if count == 0 {
+        return;
+    }
+    let w = 1.0 / count as Real;
+    for c in cells_around(nx, nz, i, j) {
+        let cq = cell_pocket[c];
+        if cq != NONE {
+            each(cq as usize, w);
+        }
+    }
+}
+
+/// The (up to four) cells around particle `(i, j)` of an `nx` x `nz` grid, by cell index.
+fn cells_around(nx: usize, nz: usize, i: usize, j: usize) -> impl Iterator<Item = usize> + Clone {
+    let m = nx - 1;
+    [(i, j), (i.wrapping_sub(1), j), (i, j.wrapping_sub(1))]
+        .into_iter()
+        .chain([(i.wrapping_sub(1), j.wrapping_sub(1))])
+        .filter(move |&(ci, cj)| ci < m && cj < nz - 1)
+        .map(move |(ci, cj)| cj * m + ci)
 }
 
 #[cfg(test)]

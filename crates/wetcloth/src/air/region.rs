@@ -43,6 +43,12 @@ pub struct Regions {
     /// model's water film pulling a sealed particle onto the surface, negative); empty when
     /// there is none.
     pub extra: Vec<Real>,
+    /// The sealed particles on the rims of pockets of air, each with its share of one such
+    /// region's pressure difference: `(particle, region, weight)`, the weight one over the
+    /// number of cells around the particle for each of its cells in that region (the mean
+    /// over its cells that the explicit step spreads). Their pressure is the region's at the
+    /// step's end, which only the solve finds: the implicit step applies it from its solves.
+    pub rim: Vec<(u32, u32, Real)>,
 }
 
 impl Regions {
@@ -78,6 +84,7 @@ impl AirModel {
         out.list.clear();
         out.label.clear();
         out.extra.clear();
+        out.rim.clear();
         let needs_plane = matches!(self, AirModel::Thesis(_));
         if !enabled || (needs_plane && model.sticking.is_none()) {
             return;
@@ -92,7 +99,8 @@ impl AirModel {
                 // A sealed particle in no pocket: the water film's pull, and its share of the
                 // vacuums around it (the mean over its cells, as the explicit step spreads the
                 // pockets' pressures), so that a particle joining a vacuum takes on its load a
-                // cell at a time. (A pocket of air is a gas spring; its share stays out.)
+                // cell at a time. (A pocket of air is a gas spring, whose pressure at the
+                // step's end the solve finds: its share goes to `rim`.)
                 if p.sealed.iter().any(|&s| s) {
                     let (nx, nz) = (model.grid.nx, model.grid.nz);
                     let vacuum = |q: usize| {
@@ -108,6 +116,16 @@ impl AirModel {
                             0.0
                         }
                     }));
+                    for k in 0..nx * nz {
+                        if p.sealed[k] && p.particle_pocket[k] == pockets::NONE {
+                            let (i, j) = (k % nx, k / nx);
+                            pockets::sealed_weights(&p.cell_pocket, nx, nz, i, j, |q, w| {
+                                if p.pockets[q].amount > 0.0 {
+                                    out.rim.push((k as u32, q as u32, w));
+                                }
+                            });
+                        }
+                    }
                 }
                 out.list.extend(
                     p.pockets

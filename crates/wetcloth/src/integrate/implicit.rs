@@ -487,6 +487,13 @@ pub(crate) struct Implicit {
     /// Per particle: whether the solve just taken drove it through a collider's surface (its
     /// end-of-step position is then no guide to its springs' stretch).
     landed: Vec<bool>,
+    /// Per particle: the pressure difference (Pa) of the pockets of air around it that its
+    /// right-hand side holds so far this step, as a sealed particle on their rims
+    /// ([`Implicit::rim_pressures`]); with `rim_target` the one the last solve asks for.
+    rim_applied: Vec<Real>,
+    rim_target: Vec<Real>,
+    /// Per region, the end-of-step pressure the last solve found (Pa).
+    end_pressure: Vec<Real>,
     /// End-of-step positions of the current velocities (for the bubble's volume).
     end: Soa,
     /// The air's regions.
@@ -549,6 +556,9 @@ impl Implicit {
             force: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
             landed: vec![false; n],
+            rim_applied: vec![0.0; n],
+            rim_target: vec![0.0; n],
+            end_pressure: Vec::new(),
             end: Soa::zeros(n),
             regions: Regions::default(),
             gas: Vec::new(),
@@ -605,6 +615,8 @@ impl Implicit {
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
             + self.inertia.capacity() * 8
             + self.landed.capacity()
+            + (self.rim_applied.capacity() + self.rim_target.capacity()) * 8
+            + self.end_pressure.capacity() * 8
     }
 
     /// Springs and their linearisation, gravity, damping-free forces and the pressure force per
@@ -1124,6 +1136,57 @@ impl Implicit {
         then - now - linear
     }
 
+    /// The rims of the pockets of air: a sealed particle beside a pocket feels its share of the
+    /// pocket's pressure difference (the mean over the cells around it, as the explicit step
+    /// spreads it, `pockets::sealed_share`). A pocket's pressure at the step's end is what the
+    /// solve finds (its gas spring: `P - (P / V) g . v dt`), so the share is applied from the
+    /// last solve and the step solved again while it moves by more than
+    /// [`PRESSURE_TOLERANCE`]: the rim lags the pocket by a solve, not by a step. (The rim's
+    /// own motion does not enter the pocket's volume: a sealed particle lies on the surface.)
+    /// Returns whether any particle's share changed.
+    fn rim_pressures(&mut self, model: &Model, regions: &Regions, dt: Real) -> bool {
+        let n = self.v.len();
+        let count = regions.list.len();
+        self.end_pressure.clear();
+        self.end_pressure.resize(count, 0.0);
+        for k in 0..n {
+            if let Some(r) = regions.of(k) {
+                self.end_pressure[r] += self.per_pascal.get(k).dot(self.v.get(k));
+            }
+        }
+        for (r, p) in self.end_pressure.iter_mut().enumerate() {
+            let region = regions.list[r];
+            *p = region.pressure - regions.atmosphere - region.stiffness * dt * *p;
+        }
+        for &(k, _, _) in &regions.rim {
+            self.rim_target[k as usize] = 0.0;
+        }
+        for &(k, r, w) in &regions.rim {
+            self.rim_target[k as usize] += w * self.end_pressure[r as usize];
+        }
+        // At most the particle's water film's pull: a sealed particle is one the film holds, so
+        // the air never pushes it off within a step (a pocket's pressure at its first steps, its
+        // air placed under a flat cloth, is 1e8 Pa); the pressure beyond lifts the cloth inside,
+        // and the sealing at the step's end decides where the rim now runs.
+        for &(k, _, _) in &regions.rim {
+            let k = k as usize;
+            let pull = model.wet_adhesion * model.wetness[k];
+            self.rim_target[k] = self.rim_target[k].min(pull);
+        }
+        let mut changed = false;
+        for &(k, _, _) in &regions.rim {
+            let k = k as usize;
+            let dp = self.rim_target[k] - self.rim_applied[k];
+            if dp.abs() > PRESSURE_TOLERANCE {
+                let f = self.rhs.get(k) + self.per_pascal.get(k) * (dp * dt);
+                self.rhs.set(k, f);
+                self.rim_applied[k] = self.rim_target[k];
+                changed = true;
+            }
+        }
+        changed
+    }
+
     /// Adds to the right-hand side the pressure force of a drop `dp` (Pa) of the bubble's
     /// pressure: `-dp g_k dt` on every particle.
     fn shift_pressure(&mut self, dp: Real, dt: Real) {
@@ -1174,6 +1237,10 @@ impl Implicit {
             // The velocity at the start, for the contacts below (`r` is free until the solve).
             self.r.set(k, v);
         }
+        self.rim_applied.clear();
+        self.rim_applied.resize(n, 0.0);
+        self.rim_target.clear();
+        self.rim_target.resize(n, 0.0);
         // Constraints: the hands, then contacts where a particle touches or would reach a
         // collider during the step at its current speed.
         self.constraints.fill(Constraint::Free);
@@ -1309,6 +1376,9 @@ impl Implicit {
                     miss = now;
                     changed = true;
                 }
+            }
+            if implicit_air && !regions.rim.is_empty() && self.rim_pressures(model, &regions, dt) {
+                changed = true;
             }
             // The strain limit: springs this solve takes past it go onto their stiff branch.
             if self.tighten(model, &state.x, dt) {
