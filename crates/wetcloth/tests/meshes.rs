@@ -390,6 +390,42 @@ fn open_mesh_stops_particles_on_both_sides() {
     }
 }
 
+/// The world contact query of an open mesh where keys have placed it (raised 1 m, turned 90
+/// degrees about x: the sheet is the plane z = 0, its faces towards +-z): a move through the
+/// sheet ends at minus its depth beyond it, with the normal towards the side it came from,
+/// from either side, where the plain distance (an open mesh has no inside) is the positive
+/// depth. A move that stays on one side answers the plain distance.
+#[test]
+fn placed_open_mesh_contact_is_measured_from_the_side_the_move_came_from() {
+    let mut sheet = Collider::mesh(two_triangles(1.0), 0.0);
+    sheet.keys = vec![
+        Key {
+            time: 0.0,
+            offset: Vec3::new(0.0, 1.0, 0.0),
+            rotation: Vec3::new(90.0, 0.0, 0.0),
+        },
+        Key {
+            time: 1.0,
+            offset: Vec3::new(0.0, 1.0, 0.0),
+            rotation: Vec3::new(90.0, 0.0, 0.0),
+        },
+    ];
+    let placed = sheet.at(0.5);
+    for side in [1.0, -1.0] {
+        let from = Vec3::new(0.1, 1.2, side * 0.01);
+        let to = Vec3::new(0.1, 1.2, -side * 0.003);
+        let (d, n) = placed.contact(from, to, 0.001).expect("within reach");
+        assert!((d + 0.003).abs() < 1e-12, "{side}: {d}");
+        assert!((n - Vec3::Z * side).length() < 1e-12, "{side}: {n}");
+        let (plain, _) = placed.distance(to);
+        assert!((plain - 0.003).abs() < 1e-12, "{side}: {plain}");
+        // Staying on its side: the plain distance.
+        let near = Vec3::new(0.1, 1.2, side * 0.0005);
+        let (d, n) = placed.contact(from, near, 0.001).expect("within reach");
+        assert!((d - 0.0005).abs() < 1e-12 && (n - Vec3::Z * side).length() < 1e-12);
+    }
+}
+
 /// Keys move and turn any shape about its own centre, linearly between keys: a box turned 45
 /// degrees about y presents an edge along x at `h sqrt 2` from its centre, and halfway (22.5
 /// degrees, half the offset) a face whose normal is turned by 22.5 degrees.
