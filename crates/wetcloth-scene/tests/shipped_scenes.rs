@@ -162,7 +162,7 @@ fn pockets_middle_runs_implicitly_at_1_600_s() {
 /// the vacuum drove through the plate was measured from the far side, so it was never
 /// "landed" and the strain limit stiffened every spring around it. Measured once: the hand
 /// holds the vacuum tent with 52.3 N at the end (52.4 N at 1/1200 s, 52.6 N at 1/2400 s); the
-/// explicit integrator's 12.6 N leaves out the tension its strain-limit projection removes
+/// explicit integrator's projection, which also slides cloth friction holds, reads 20.4 N
 /// (without the limit the two agree: 17.2465 against 17.2418 N).
 #[test]
 fn tilted_lift_runs_implicitly_at_1_600_s() {

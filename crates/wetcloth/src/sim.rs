@@ -551,6 +551,16 @@ impl Simulation {
                 &mut self.strain,
             )
             .corrected;
+            // A hand holds its particle against the limit's pull too (the springs' share is
+            // in its force already).
+            let dt = self.config.simulation.time_step;
+            for &(k, pull) in self.strain.pulls() {
+                for g in &mut self.control.grabs {
+                    if g.particle == k as usize {
+                        g.force += pull / (dt * dt);
+                    }
+                }
+            }
         }
         corrected
     }

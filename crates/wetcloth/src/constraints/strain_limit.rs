@@ -22,7 +22,7 @@
 //! full of kinetic energy.
 
 use crate::collide::{Collider, contact};
-use crate::math::Real;
+use crate::math::{Real, Vec3};
 use crate::model::Grid;
 use crate::state::State;
 
@@ -79,12 +79,22 @@ fn rest_lengths(grid: &Grid) -> [Real; 4] {
 pub struct Scratch {
     /// The particles a sweep moved.
     moved: Vec<u32>,
+    /// What the last call's projections pulled on held particles: per projection of a spring
+    /// with one held end, that end and the free end's mass times its move towards it (kg m).
+    pull: Vec<(u32, Vec3)>,
 }
 
 impl Scratch {
+    /// The pull of the last call's projections on each held particle, kg m (see
+    /// [`limit_strain`]): over a step of `dt` the hand holding it pulls `sum / dt^2` more (N)
+    /// than the springs alone ask.
+    pub fn pulls(&self) -> &[(u32, Vec3)] {
+        &self.pull
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.moved.capacity() * 4
+        self.moved.capacity() * 4 + self.pull.capacity() * std::mem::size_of::<(u32, Vec3)>()
     }
 }
 
@@ -92,7 +102,8 @@ impl Scratch {
 /// rest length (see the module docs). `inv_mass` weighs the moves (1/kg); `held` particles do
 /// not move; `colliders` (particle radius `radius`, m) are re-imposed after each sweep; at most
 /// `max_sweeps` sweeps. A sweep compares squared lengths first, so a step where nothing is over
-/// the limit costs one light pass over the springs.
+/// the limit costs one light pass over the springs. What the projections pulled on the held
+/// particles is left in `scratch` ([`Scratch::pulls`]): their hands' share of the limit.
 #[allow(clippy::too_many_arguments)] // the cloth, its constraint and its colliders
 pub fn limit_strain(
     grid: &Grid,
@@ -111,6 +122,8 @@ pub fn limit_strain(
     let w = |k: usize| if held[k] { 0.0 } else { inv_mass[k] };
     let mut out = Outcome::default();
     let moved = &mut scratch.moved;
+    let pull = &mut scratch.pull;
+    pull.clear();
     while out.sweeps < max_sweeps {
         out.sweeps += 1;
         moved.clear();
@@ -130,6 +143,13 @@ pub fn limit_strain(
             let corr = d * ((len - max_len[s]) / (len * (wa + wb)));
             state.x.set(a, state.x.get(a) + corr * wa);
             state.x.set(b, state.x.get(b) - corr * wb);
+            // A held end does not move: its hand holds it against the pull that moved the free
+            // end (mass 1 / w times a move of w corr).
+            if held[a] {
+                pull.push((a as u32, -corr));
+            } else if held[b] {
+                pull.push((b as u32, corr));
+            }
             moved.extend([a as u32, b as u32]);
         });
         out.worst = worst;
@@ -165,7 +185,6 @@ pub fn max_stretch(grid: &Grid, x: &crate::math::Soa) -> Real {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Vec3;
     use crate::params::ClothParams;
 
     /// A cloth within the limit, moving so that its springs stretch, ends its step within the
