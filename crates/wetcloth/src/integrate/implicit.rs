@@ -1140,18 +1140,22 @@ impl Implicit {
     /// pocket's pressure difference (the mean over the cells around it, as the explicit step
     /// spreads it, `pockets::sealed_share`). A pocket's pressure at the step's end is what the
     /// solve finds (its gas spring: `P - (P / V) g . v dt`), so the share is applied from the
-    /// last solve and the step solved again while it moves by more than
-    /// [`PRESSURE_TOLERANCE`]: the rim lags the pocket by a solve, not by a step. (The rim's
+    /// last solve (before the first, from the pressure now) and the step solved again while it
+    /// moves by more than [`PRESSURE_TOLERANCE`]: the rim lags the pocket by a solve, not by a
+    /// step. (The rim's
     /// own motion does not enter the pocket's volume: a sealed particle lies on the surface.)
+    /// With `start`, before the first solve, the pockets' pressures are their pressures now.
     /// Returns whether any particle's share changed.
-    fn rim_pressures(&mut self, model: &Model, regions: &Regions, dt: Real) -> bool {
+    fn rim_pressures(&mut self, model: &Model, regions: &Regions, dt: Real, start: bool) -> bool {
         let n = self.v.len();
         let count = regions.list.len();
         self.end_pressure.clear();
         self.end_pressure.resize(count, 0.0);
-        for k in 0..n {
-            if let Some(r) = regions.of(k) {
-                self.end_pressure[r] += self.per_pascal.get(k).dot(self.v.get(k));
+        if !start {
+            for k in 0..n {
+                if let Some(r) = regions.of(k) {
+                    self.end_pressure[r] += self.per_pascal.get(k).dot(self.v.get(k));
+                }
             }
         }
         for (r, p) in self.end_pressure.iter_mut().enumerate() {
@@ -1283,6 +1287,11 @@ impl Implicit {
             miss = self.volume_miss(model, &state.x, start_volume, dt);
             self.shift_pressure(stiff * miss, dt);
         }
+        // The rims start from their pockets' pressures now (a pocket at rest keeps them: no
+        // second solve), and follow the solves' end-of-step pressures.
+        if implicit_air && !regions.rim.is_empty() {
+            self.rim_pressures(model, &regions, dt, true);
+        }
         for pass in 0..CONTACT_PASSES {
             let last = pass + 1 == CONTACT_PASSES;
             let tolerance = if last {
@@ -1377,7 +1386,10 @@ impl Implicit {
                     changed = true;
                 }
             }
-            if implicit_air && !regions.rim.is_empty() && self.rim_pressures(model, &regions, dt) {
+            if implicit_air
+                && !regions.rim.is_empty()
+                && self.rim_pressures(model, &regions, dt, false)
+            {
                 changed = true;
             }
             // The strain limit: springs this solve takes past it go onto their stiff branch.
