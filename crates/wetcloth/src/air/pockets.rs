@@ -1079,4 +1079,35 @@ mod tests {
         let expect = prism(pts[0], pts[3], pts[1]) + prism(pts[0], pts[2], pts[3]);
         assert!((v[0] - expect).abs() < 1e-15, "{} against {expect}", v[0]);
     }
+
+    /// A sealed particle's share of the pockets around it, by weights (the implicit step's
+    /// rims) and by the mean over its cells (the explicit step's): the same, to round-off, on
+    /// a 5 x 4 grid of cells labelled by three pockets and none, at every particle (inner: four
+    /// cells, border: two, corner: one). With every cell in one pocket the weights sum to one.
+    #[test]
+    fn sealed_weights_give_the_sealed_share() {
+        let (nx, nz) = (6, 5);
+        let cells: Vec<u32> = (0..(nx - 1) * (nz - 1))
+            .map(|c| match (c * 7) % 4 {
+                3 => NONE,
+                q => q as u32,
+            })
+            .collect();
+        let pressure = |q: usize| [120.0, -101_325.0, 35.5][q];
+        for j in 0..nz {
+            for i in 0..nx {
+                let mut by_weights = 0.0;
+                sealed_weights(&cells, nx, nz, i, j, |q, w| by_weights += w * pressure(q));
+                let mean = sealed_share(&cells, nx, nz, i, j, pressure);
+                assert!(
+                    (by_weights - mean).abs() <= 1e-12 * mean.abs().max(1.0),
+                    "({i}, {j}): {by_weights} against {mean}"
+                );
+                let one = vec![0; cells.len()];
+                let mut total = 0.0;
+                sealed_weights(&one, nx, nz, i, j, |_, w| total += w);
+                assert!((total - 1.0).abs() < 1e-15, "({i}, {j}): {total}");
+            }
+        }
+    }
 }
