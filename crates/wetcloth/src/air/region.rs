@@ -107,24 +107,19 @@ impl AirModel {
                         let pocket = &p.pockets[q];
                         if pocket.amount > 0.0 { 0.0 } else { -pa }
                     };
-                    out.extra.extend((0..nx * nz).map(|k| {
-                        if p.sealed[k] && p.particle_pocket[k] == pockets::NONE {
-                            let (i, j) = (k % nx, k / nx);
-                            pockets::sealed_share(&p.cell_pocket, nx, nz, i, j, vacuum)
-                                - model.wet_adhesion * model.wetness[k]
-                        } else {
-                            0.0
-                        }
-                    }));
+                    out.extra.resize(nx * nz, 0.0);
                     for k in 0..nx * nz {
-                        if p.sealed[k] && p.particle_pocket[k] == pockets::NONE {
-                            let (i, j) = (k % nx, k / nx);
-                            pockets::sealed_weights(&p.cell_pocket, nx, nz, i, j, |q, w| {
-                                if p.pockets[q].amount > 0.0 {
-                                    out.rim.push((k as u32, q as u32, w));
-                                }
-                            });
+                        if !p.sealed[k] || p.particle_pocket[k] != pockets::NONE {
+                            continue;
                         }
+                        let (i, j) = (k % nx, k / nx);
+                        out.extra[k] = pockets::sealed_share(&p.cell_pocket, nx, nz, i, j, vacuum)
+                            - model.wet_adhesion * model.wetness[k];
+                        pockets::sealed_weights(&p.cell_pocket, nx, nz, i, j, |q, w| {
+                            if p.pockets[q].amount > 0.0 {
+                                out.rim.push((k as u32, q as u32, w));
+                            }
+                        });
                     }
                 }
                 out.list.extend(

@@ -240,14 +240,7 @@ impl Collider {
     /// certainly farther (only a mesh answers `None`, sparing the full closest-point search).
     #[inline]
     pub fn distance_within(&self, p: Vec3, reach: Real) -> Option<(Real, Vec3)> {
-        match &self.placement {
-            None => self.rest_contact(p, p, reach),
-            Some(at) => {
-                let q = at.to_rest(p);
-                let (d, n) = self.rest_contact(q, q, reach)?;
-                Some((d, at.dir_to_world(n)))
-            }
-        }
+        self.contact(p, p, reach)
     }
 
     /// The contact query of a particle moving from `prev` to `p` (world, m): `None` when the

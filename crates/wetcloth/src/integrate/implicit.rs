@@ -492,7 +492,8 @@ pub(crate) struct Implicit {
     /// ([`Implicit::rim_pressures`]); with `rim_target` the one the last solve asks for.
     rim_applied: Vec<Real>,
     rim_target: Vec<Real>,
-    /// Per region, the end-of-step pressure the last solve found (Pa).
+    /// Per region, the difference to the atmosphere (Pa) of the end-of-step pressure the last
+    /// solve found.
     end_pressure: Vec<Real>,
     /// End-of-step positions of the current velocities (for the bubble's volume).
     end: Soa,
@@ -1241,10 +1242,6 @@ impl Implicit {
             // The velocity at the start, for the contacts below (`r` is free until the solve).
             self.r.set(k, v);
         }
-        self.rim_applied.clear();
-        self.rim_applied.resize(n, 0.0);
-        self.rim_target.clear();
-        self.rim_target.resize(n, 0.0);
         // Constraints: the hands, then contacts where a particle touches or would reach a
         // collider during the step at its current speed.
         self.constraints.fill(Constraint::Free);
@@ -1290,6 +1287,9 @@ impl Implicit {
         // The rims start from their pockets' pressures now (a pocket at rest keeps them: no
         // second solve), and follow the solves' end-of-step pressures.
         if implicit_air && !regions.rim.is_empty() {
+            for &(k, _, _) in &regions.rim {
+                self.rim_applied[k as usize] = 0.0;
+            }
             self.rim_pressures(model, &regions, dt, true);
         }
         for pass in 0..CONTACT_PASSES {
