@@ -44,9 +44,15 @@ const SMALL: &str = "name = \"small\"\n[simulation]\nduration = 0.25\nframe_rate
     [cloth]\nresolution = [8, 8]\ndamping = 2.0\n[[grab]]\nparticle = [4, 4]\n\
     keys = [{ time = 0.05, offset = [0, 0, 0] }, { time = 0.2, offset = [0, 0.03, 0] }]\n";
 
-/// A minute of a 40 x 40 cloth settling: long enough to be stopped part way.
-const LONG: &str = "name = \"long\"\n[simulation]\nduration = 60\nframe_rate = 60\n\
+/// A minute of a 40 x 40 cloth settling: long enough to be stopped part way. Ten frames a
+/// second keep its estimated output (about 250 MB) small; the runs pass `--force` all the same,
+/// as they are stopped after a few frames and a machine with little free disk must not refuse
+/// them.
+const LONG: &str = "name = \"long\"\n[simulation]\nduration = 60\nframe_rate = 10\n\
     [cloth]\nresolution = [40, 40]\n";
+
+/// `LONG`'s frame rate, 1/s.
+const LONG_RATE: f64 = 10.0;
 
 fn run_json(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&fs::read_to_string(dir.join("run.json")).unwrap()).unwrap()
@@ -87,8 +93,9 @@ fn metrics_rows(dir: &Path) -> usize {
 /// Starts a long run into `out` and waits until it has written `frames` frames.
 fn start_long(dir: &Path, out: &Path, frames: usize) -> Child {
     let scene = write(dir, "long.toml", LONG);
-    let child = Command::new(BIN)
+    let mut child = Command::new(BIN)
         .args(["run", &scene, "--out", out.to_str().unwrap(), "--quiet"])
+        .arg("--force")
         .env_remove("RAYON_NUM_THREADS")
         .stderr(Stdio::piped())
         .spawn()
@@ -98,10 +105,19 @@ fn start_long(dir: &Path, out: &Path, frames: usize) -> Child {
         .join(format!("frame_{:04}.obj", frames - 1));
     let t = Instant::now();
     while !last.exists() {
-        assert!(
-            t.elapsed() < Duration::from_secs(120),
-            "the run never got to {frames} frames"
-        );
+        // A run that ended (refused, failed) will never get there: say why at once.
+        if child.try_wait().unwrap().is_some() {
+            let o = child.wait_with_output().unwrap();
+            panic!(
+                "the run ended before {frames} frames ({}): {}",
+                o.status,
+                stderr(&o)
+            );
+        }
+        if t.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            panic!("the run never got to {frames} frames in 120 s");
+        }
         std::thread::sleep(Duration::from_millis(20));
     }
     child
@@ -180,7 +196,7 @@ fn ctrl_c_and_sigterm_stop_after_a_whole_frame_and_say_interrupted() {
         assert_eq!(metrics_rows(&out), frames);
         // The time reached is the last frame's.
         let t = json["time"].as_f64().unwrap();
-        assert!((t - (frames - 1) as f64 / 60.0).abs() < 1e-9, "{json}");
+        assert!((t - (frames - 1) as f64 / LONG_RATE).abs() < 1e-9, "{json}");
         assert_eq!(parts(&out), Vec::<PathBuf>::new());
         assert!(json.get("error").is_none());
     }
