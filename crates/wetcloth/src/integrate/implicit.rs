@@ -868,6 +868,37 @@ impl Implicit {
         }
     }
 
+    /// The contact of a particle that the last solve found landing on a collider (`stick`, its
+    /// landing constraint), with Coulomb friction for the impact (thesis eq. 3.5, as the
+    /// explicit step's collision response has it): stopping its normal velocity takes an
+    /// impulse `m dv_n`, whose friction can take `mu m dv_n` of its tangential momentum. If that
+    /// stops its slide it lands held (static friction; the next solve's friction-cone test
+    /// decides whether it stays); otherwise it lands sliding, against a drag that takes just
+    /// that much (`m mu dv_n / (|v_t| - mu dv_n)`), until the next solve measures its normal
+    /// force. Holding every landing particle (as before) stopped its slide with an impulse of
+    /// any size, and a particle landing in a step's last solve stayed held through the step
+    /// whatever pulled it: a lifted cloth that sinks onto the table as it is pulled in was pinned
+    /// there, ring by ring.
+    fn landing_friction(&self, k: usize, stick: Constraint) -> Constraint {
+        let Constraint::Stick { n, vn, mu } = stick else {
+            return stick;
+        };
+        let v = self.v.get(k);
+        let stopped = (vn - v.dot(n)).max(0.0);
+        let vt = (v - n * n.dot(v)).length();
+        let held = mu * stopped;
+        if held >= vt {
+            stick
+        } else {
+            Constraint::Normal {
+                n,
+                vn,
+                mu,
+                drag: self.inertia[k] * held / (vt - held),
+            }
+        }
+    }
+
     /// The inverse diagonal at particle `k` after its constraint changed (a slide's drag).
     fn precondition_one(&mut self, k: usize) {
         let d = self.diag_base.get(k);
@@ -1303,6 +1334,13 @@ impl Implicit {
             // `A v+`: the constraint forces are `(A v+ - b) / dt`.
             self.apply(&sys, Which::V, None);
             if last {
+                // A spring this last solve takes past the strain limit goes onto its stiff
+                // branch and the step is solved once more (no other constraint changes).
+                if self.tighten(model, &state.x, dt) {
+                    self.precondition(&sys);
+                    self.iterations += self.solve(&sys, CG_TOLERANCE);
+                    self.apply(&sys, Which::V, None);
+                }
                 break;
             }
             // Release contacts that pull or slip; constrain particles that would land inside
@@ -1346,7 +1384,8 @@ impl Implicit {
                         let x = state.x.get(k);
                         let to = x + self.v.get(k) * dt;
                         if let Some((c, through)) = landing_constraint(model, k, x, to, dt) {
-                            self.constraints[k] = c;
+                            self.constraints[k] = self.landing_friction(k, c);
+                            self.precondition_one(k);
                             self.landed[k] = through;
                             changed = true;
                         }
