@@ -33,6 +33,27 @@ fn run(sim: &mut Simulation, seconds: Real) {
     }
 }
 
+/// The thesis demo on a `side` x `side` cloth, its middle particle lifted by `(t0, t1,
+/// height)` (s, s, m), with `integrator` at `dt` s.
+fn lifted_demo(
+    side: usize,
+    (t0, t1, height): (Real, Real, Real),
+    integrator: Integrator,
+    dt: Real,
+) -> SimConfig {
+    let mut cfg = SimConfig::thesis_demo();
+    cfg.cloth.resolution = [side, side];
+    cfg.grabs = vec![wetcloth::GrabSpec::lift(
+        [side / 2, side / 2],
+        t0,
+        t1,
+        height,
+    )];
+    cfg.simulation.integrator = integrator;
+    cfg.simulation.time_step = dt;
+    cfg
+}
+
 fn mean(v: &[Real]) -> Real {
     v.iter().sum::<Real>() / v.len() as Real
 }
@@ -431,12 +452,8 @@ fn implicit_strain_limit_holds_the_pinch_without_gaining_energy() {
 #[test]
 fn implicit_floating_cloth_lifted_keeps_the_bubbles_pressure() {
     let lifted = |integrator: Integrator, dt: Real| {
-        let mut cfg = SimConfig::thesis_demo();
-        cfg.cloth.resolution = [20, 20];
+        let mut cfg = lifted_demo(20, (0.05, 0.55, 0.007), integrator, dt);
         cfg.cloth.self_collision = false;
-        cfg.grabs = vec![wetcloth::GrabSpec::lift([10, 10], 0.05, 0.55, 0.007)];
-        cfg.simulation.integrator = integrator;
-        cfg.simulation.time_step = dt;
         let pa = cfg.air.atmospheric_pressure;
         let mut sim = Simulation::new(cfg).unwrap();
         let mut over = Vec::new();
@@ -477,12 +494,8 @@ fn implicit_floating_cloth_lifted_keeps_the_bubbles_pressure() {
 #[test]
 fn implicit_lifted_cloth_slides_in_over_the_table_as_the_explicit_one_does() {
     let peak = |integrator: Integrator, dt: Real| {
-        let mut cfg = SimConfig::thesis_demo();
-        cfg.cloth.resolution = [25, 25];
+        let mut cfg = lifted_demo(25, (0.25, 1.75, 0.05), integrator, dt);
         cfg.air.enabled = false;
-        cfg.grabs = vec![wetcloth::GrabSpec::lift([12, 12], 0.25, 1.75, 0.05)];
-        cfg.simulation.integrator = integrator;
-        cfg.simulation.time_step = dt;
         let mut sim = Simulation::new(cfg).unwrap();
         let mut peak: Real = 0.0;
         for _ in 0..(2.0 / dt).round() as usize {
