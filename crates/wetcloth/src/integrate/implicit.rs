@@ -1172,18 +1172,21 @@ impl Implicit {
     /// pocket's pressure difference (the mean over the cells around it, as the explicit step
     /// spreads it, `pockets::sealed_share`). A pocket's pressure at the step's end is what the
     /// solve finds (its gas spring: `P - (P / V) g . v dt`), so the share is applied from the
-    /// last solve (before the first, from the pressure now) and the step solved again while it
-    /// moves by more than [`PRESSURE_TOLERANCE`]: the rim lags the pocket by a solve, not by a
-    /// step. (The rim's
-    /// own motion does not enter the pocket's volume: a sealed particle lies on the surface.)
-    /// With `start`, before the first solve, the pockets' pressures are their pressures now.
-    /// Returns whether any particle's share changed.
+    /// last solve and the step solved again while it moves by more than
+    /// [`PRESSURE_TOLERANCE`]: the rim lags the pocket by a solve, not by a step. (The rim's own
+    /// motion does not enter the pocket's volume: a sealed particle lies on the surface.) With
+    /// `start`, before the first solve of a step, the rims start from nothing applied and take
+    /// the pockets' pressures now. Returns whether any particle's share changed.
     fn rim_pressures(&mut self, model: &Model, regions: &Regions, dt: Real, start: bool) -> bool {
         let n = self.v.len();
         let count = regions.list.len();
         self.end_pressure.clear();
         self.end_pressure.resize(count, 0.0);
-        if !start {
+        if start {
+            for &(k, _, _) in &regions.rim {
+                self.rim_applied[k as usize] = 0.0;
+            }
+        } else {
             for k in 0..n {
                 if let Some(r) = regions.of(k) {
                     self.end_pressure[r] += self.per_pascal.get(k).dot(self.v.get(k));
@@ -1200,18 +1203,15 @@ impl Implicit {
         for &(k, r, w) in &regions.rim {
             self.rim_target[k as usize] += w * self.end_pressure[r as usize];
         }
-        // At most the particle's water film's pull: a sealed particle is one the film holds, so
-        // the air never pushes it off within a step (a pocket's pressure at its first steps, its
-        // air placed under a flat cloth, is 1e8 Pa); the pressure beyond lifts the cloth inside,
-        // and the sealing at the step's end decides where the rim now runs.
-        for &(k, _, _) in &regions.rim {
-            let k = k as usize;
-            let pull = model.wet_adhesion * model.wetness[k];
-            self.rim_target[k] = self.rim_target[k].min(pull);
-        }
         let mut changed = false;
         for &(k, _, _) in &regions.rim {
             let k = k as usize;
+            // At most the particle's water film's pull: a sealed particle is one the film holds,
+            // so the air never pushes it off within a step (a pocket's pressure at its first
+            // steps, its air placed under a flat cloth, is 1e8 Pa); the pressure beyond lifts the
+            // cloth inside, and the sealing at the step's end decides where the rim now runs.
+            let pull = model.wet_adhesion * model.wetness[k];
+            self.rim_target[k] = self.rim_target[k].min(pull);
             let dp = self.rim_target[k] - self.rim_applied[k];
             if dp.abs() > PRESSURE_TOLERANCE {
                 let f = self.rhs.get(k) + self.per_pascal.get(k) * (dp * dt);
@@ -1318,9 +1318,6 @@ impl Implicit {
         // The rims start from their pockets' pressures now (a pocket at rest keeps them: no
         // second solve), and follow the solves' end-of-step pressures.
         if implicit_air && !regions.rim.is_empty() {
-            for &(k, _, _) in &regions.rim {
-                self.rim_applied[k as usize] = 0.0;
-            }
             self.rim_pressures(model, &regions, dt, true);
         }
         for pass in 0..CONTACT_PASSES {
