@@ -379,12 +379,13 @@ fn implicit_floating_cloth_solves_in_few_iterations() {
 /// Found before: Provot's projection after the implicit step slid particles that static
 /// friction held, the next step's friction kept the strain it left, and a 100 x 100 pinch
 /// gained 0.77 J until the energy audit stopped it. Here every step passes the audit, the
-/// threads never stretch past 13 % (measured 12.33 %, for one step while the pinch peels off
-/// the table: a particle that lands then keeps the slide its impact's friction cannot stop;
-/// 11.19 % when every landing particle was held; 10.15 % once the lift has settled), the cloth
-/// gains nothing beyond the hand's work (measured: nothing), and the cloth, now nearly
-/// inextensible, lifts more of itself against the atmosphere than without the limit, so the
-/// hand pulls harder (measured 22.5 N against 5.7 N).
+/// threads never stretch past 12 % (measured 11.55 %, for one step while the pinch peels off
+/// the table; 10.15 % once the lift has settled; 15.0 % when twelve particles there were
+/// released and landed again in turn through all of a step's solves, ending released and
+/// projected onto the table after it), the cloth gains nothing beyond the hand's work
+/// (measured: nothing), and the cloth, now nearly inextensible, lifts more of itself against
+/// the atmosphere than without the limit, so the hand pulls harder (measured 22.8 N against
+/// 5.7 N).
 #[test]
 fn implicit_strain_limit_holds_the_pinch_without_gaining_energy() {
     let at = |limit: Real| {
@@ -417,7 +418,7 @@ fn implicit_strain_limit_holds_the_pinch_without_gaining_energy() {
         "without the limit: {}",
         free.max_stretch
     );
-    assert!(worst < 0.13, "threads stretched {worst}");
+    assert!(worst < 0.12, "threads stretched {worst}");
     assert!(
         gain < 1e-3,
         "the cloth gained {gain} J beyond the hand's work"
@@ -509,5 +510,61 @@ fn implicit_lifted_cloth_slides_in_over_the_table_as_the_explicit_one_does() {
     assert!(
         (implicit / explicit - 1.0).abs() < 0.1,
         "implicit {implicit} N against explicit {explicit} N"
+    );
+}
+
+/// `pinch-dry` made small: a dry, stiff cloth (5000 / 1250 N/m, 25 x 25 particles, 15 cm, 6 mm
+/// apart like the scene's 50 x 50) lifted 1.2 cm at its centre over 1 s: the hand carries the
+/// lifted part's weight while the cloth around it slides in over the table. Found on the full
+/// scene: the hand's force spiked to twice the explicit integrator's peak at 1/600 s (0.092
+/// against 0.047 N; 46 % off on average over the lift) because the step ran out of its four
+/// solves while the rim changed from held to sliding, ending steps with held particles
+/// outside the friction cone. With eight solves (the first ones stopping at a hundredth) it
+/// agrees (0.0467 N, 3.2 % on average). Here, the hand's force every 1/60 s over the lift
+/// against the explicit integrator at the scene's 1/36000 s, the mean difference over the mean
+/// force: measured 5.1 % (12.2 % with four solves); required within 10 %, the bound.
+#[test]
+fn implicit_dry_cloth_lifted_at_its_centre_agrees_with_the_explicit_one() {
+    let forces = |integrator: Integrator, dt: Real| {
+        let mut cfg = SimConfig::thesis_demo();
+        cfg.air.enabled = false;
+        cfg.air.trapped_air = 0.0;
+        cfg.cloth.resolution = [25, 25];
+        cfg.cloth.size = [0.15, 0.15];
+        cfg.cloth.mass = 0.005;
+        cfg.cloth.structural_stiffness = 5000.0;
+        cfg.cloth.shear_stiffness = 1250.0;
+        cfg.cloth.position.y = cfg.cloth.particle_radius();
+        cfg.grabs = vec![wetcloth::GrabSpec::lift([12, 12], 0.25, 1.25, 0.012)];
+        cfg.simulation.integrator = integrator;
+        cfg.simulation.time_step = dt;
+        let mut sim = Simulation::new(cfg).unwrap();
+        let per_frame = (1.0 / (60.0 * dt)).round() as usize;
+        let mut out = Vec::new();
+        for frame in 1..=75 {
+            for _ in 0..per_frame {
+                sim.step().expect("stable step");
+            }
+            if frame >= 24 {
+                out.push(sim.grab_force().length());
+            }
+        }
+        out
+    };
+    let explicit = forces(Integrator::Verlet, 1.0 / 36000.0);
+    let implicit = forces(Integrator::Implicit, 1.0 / 600.0);
+    // The average difference over the average force (a frame's own relative difference
+    // would weigh the lift's first instants, where the force is a few millinewtons, most).
+    let off = mean(
+        &implicit
+            .iter()
+            .zip(&explicit)
+            .map(|(i, e)| (i - e).abs())
+            .collect::<Vec<_>>(),
+    ) / mean(&explicit);
+    assert!(
+        off < 0.1,
+        "{:.1} % off on average: implicit {implicit:?} against explicit {explicit:?}",
+        100.0 * off
     );
 }
