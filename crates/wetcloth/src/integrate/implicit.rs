@@ -71,17 +71,11 @@ pub const CG_MAX_ITERATIONS: usize = 4000;
 
 /// Relative residual at which the solves before the last one stop. Those only decide which
 /// contacts hold, stick or slide; the last solve (the one whose constraints no longer change, or
-/// the last allowed) is taken on to [`CG_TOLERANCE`] from where they left off. A hundredth
-/// decides the contact set as well as a thousandth did, in fewer iterations, which pays for
-/// more solves ([`CONTACT_PASSES`]; docs/integrators.md has the measurements).
-pub const CG_CONTACT_TOLERANCE: Real = 1e-2;
-
-/// [`CG_CONTACT_TOLERANCE`] for a cloth with a strain limit: the solves before the last also
-/// decide which springs go onto the limit's stiff branch, and a spring put there stays for the
-/// step, its stiff tangent pushing it out to the limit if it was not going to reach it. Judged
-/// by solves stopped at a hundredth, `pockets-middle` (a 10 % limit binding against a vacuum
-/// pocket) stiffened springs that were not going to reach the limit and blew up at 1.39 s.
-pub const CG_LIMIT_CONTACT_TOLERANCE: Real = 1e-3;
+/// the last allowed) is taken on to [`CG_TOLERANCE`] from where they left off. A thousandth
+/// decides the contact set as well as `CG_TOLERANCE` does, in half the iterations on a cloth
+/// dragged over the table; a hundredth (tried) does not: on the thesis demo held lifted at
+/// 1/60 s the bubble's volume then jumped by up to 20 cm^3 from one step to the next.
+pub const CG_CONTACT_TOLERANCE: Real = 1e-3;
 
 /// Most solves per step while the contact set changes. With 4, a dry cloth lifted at its
 /// centre (`pinch-dry`) ran out of solves while its rim changed from held to sliding and the
@@ -123,24 +117,6 @@ impl Limit {
             }
         }
     }
-}
-
-/// Where a particle's contact is in a step's sequence of solves. A contact whose force pulls
-/// is released; if the solve then drives the particle back into the collider it lands again,
-/// pulls again, and so on: at 1/600 s a pinch peeling off the table had twelve particles
-/// alternate like this through every solve of a step, which ended with them released and
-/// projected onto the table after the solve, their springs 15 % past a 10 % strain limit. The
-/// particle sits on the surface with no force between them (the complementarity condition's
-/// boundary), so a contact released and landed again in one step is kept to the step's end,
-/// without friction once its force pulls.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Cycle {
-    /// Not released this step.
-    Held,
-    /// Released this step.
-    Released,
-    /// Released and landed again this step: kept.
-    Relanded,
 }
 
 /// A particle's constraint in the solve.
@@ -514,9 +490,6 @@ pub(crate) struct Implicit {
     /// Per particle: whether the solve just taken drove it through a collider's surface (its
     /// end-of-step position is then no guide to its springs' stretch).
     landed: Vec<bool>,
-    /// Per particle, within a step: whether a solve released its contact, and whether it then
-    /// landed again (see [`Implicit::step`]: such a contact is kept to the step's end).
-    released: Vec<Cycle>,
     /// Per particle: the pressure difference (Pa) of the pockets of air around it that its
     /// right-hand side holds so far this step, as a sealed particle on their rims
     /// ([`Implicit::rim_pressures`]); with `rim_target` the one the last solve asks for.
@@ -587,7 +560,6 @@ impl Implicit {
             force: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
             landed: vec![false; n],
-            released: vec![Cycle::Held; n],
             rim_applied: vec![0.0; n],
             rim_target: vec![0.0; n],
             end_pressure: Vec::new(),
@@ -647,7 +619,6 @@ impl Implicit {
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
             + self.inertia.capacity() * 8
             + self.landed.capacity()
-            + self.released.capacity() * std::mem::size_of::<Cycle>()
             + (self.rim_applied.capacity() + self.rim_target.capacity()) * 8
             + self.end_pressure.capacity() * 8
     }
@@ -1353,14 +1324,10 @@ impl Implicit {
         if implicit_air && !regions.rim.is_empty() {
             self.rim_pressures(model, &regions, dt, true);
         }
-        self.released.clear();
-        self.released.resize(n, Cycle::Held);
         for pass in 0..CONTACT_PASSES {
             let last = pass + 1 == CONTACT_PASSES;
             let tolerance = if last {
                 CG_TOLERANCE
-            } else if model.strain_limit > 0.0 {
-                CG_LIMIT_CONTACT_TOLERANCE
             } else {
                 CG_CONTACT_TOLERANCE
             };
@@ -1394,21 +1361,8 @@ impl Implicit {
                         let v = self.v.get(k);
                         let lambda = self.q.get(k) - self.rhs.get(k);
                         let push = lambda.dot(normal);
-                        if push < 0.0 && self.released[k] == Cycle::Relanded {
-                            // Kept on the surface, without friction (it does not push).
-                            if drag != 0.0 {
-                                self.constraints[k] = Constraint::Normal {
-                                    n: normal,
-                                    vn,
-                                    mu,
-                                    drag: 0.0,
-                                };
-                                self.precondition_one(k);
-                                changed = true;
-                            }
-                        } else if push < 0.0 {
+                        if push < 0.0 {
                             self.constraints[k] = Constraint::Free;
-                            self.released[k] = Cycle::Released;
                             self.precondition_one(k);
                             changed = true;
                         } else {
@@ -1434,9 +1388,6 @@ impl Implicit {
                             self.constraints[k] = self.landing_friction(k, c);
                             self.precondition_one(k);
                             self.landed[k] = through;
-                            if self.released[k] == Cycle::Released {
-                                self.released[k] = Cycle::Relanded;
-                            }
                             changed = true;
                         }
                     }
@@ -1445,19 +1396,8 @@ impl Implicit {
                         let lambda = self.q.get(k) - self.rhs.get(k);
                         let push = lambda.dot(normal);
                         let shear = (lambda - normal * push).length();
-                        if push < 0.0 && self.released[k] == Cycle::Relanded {
-                            // Kept on the surface, without friction (it does not push).
-                            self.constraints[k] = Constraint::Normal {
-                                n: normal,
-                                vn,
-                                mu,
-                                drag: 0.0,
-                            };
-                            self.precondition_one(k);
-                            changed = true;
-                        } else if push < 0.0 {
+                        if push < 0.0 {
                             self.constraints[k] = Constraint::Free;
-                            self.released[k] = Cycle::Released;
                             changed = true;
                         } else if shear > mu * push {
                             // Slides, against kinetic friction: a drag for the speed it had at
