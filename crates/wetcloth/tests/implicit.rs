@@ -447,8 +447,10 @@ fn implicit_strain_limit_holds_the_pinch_without_gaining_energy() {
 /// bubble fell 33 Pa below the atmosphere here at 1/600 s (18 Pa on the 50 x 50 `air-400`).
 /// Now the miss between the volume at the step's end and its linear prediction corrects the
 /// pressure inside the step (solved again while it moves the pressure by more than 0.01 Pa):
-/// measured within 0.017 Pa of the explicit integrator's pressure at 1/600 s and 0.44 Pa at
-/// 1/120 s (first order in the step, and the 0.01 Pa threshold per solve).
+/// measured within 0.017 Pa of the explicit integrator's pressure at 1/600 s and 0.019 Pa at
+/// 1/120 s (0.44 Pa at 1/120 s when the shift was a fixed-point iteration that ended with the
+/// step's fourth solve; 1.9 Pa with eight solves whose first ones stopped at a hundredth, the
+/// miss measured on them). Required: 0.05 Pa and 0.1 Pa.
 #[test]
 fn implicit_floating_cloth_lifted_keeps_the_bubbles_pressure() {
     let lifted = |integrator: Integrator, dt: Real| {
@@ -470,7 +472,7 @@ fn implicit_floating_cloth_lifted_keeps_the_bubbles_pressure() {
     for p in &explicit {
         assert!((p - weight).abs() < 0.1, "explicit: {explicit:?}");
     }
-    for (dt, within) in [(1.0 / 600.0, 0.05), (1.0 / 120.0, 1.0)] {
+    for (dt, within) in [(1.0 / 600.0, 0.05), (1.0 / 120.0, 0.1)] {
         let implicit = lifted(Integrator::Implicit, dt);
         for (p, e) in implicit.iter().zip(&explicit) {
             assert!(

@@ -16,8 +16,9 @@
 //! its particles (`S N_i`, eq. 3.7; `dV/dx_i` as the thesis spreads it). That spread is not the
 //! gradient of the volume the pressure comes from (eq. 3.10 gives a border particle half an
 //! inner one's share), so for the thesis' bubble the step also measures the volume at its end
-//! and shifts the pressure by the gas spring times the miss beyond `g . v+ dt`, solving again
-//! while the shift moves it by more than 0.01 Pa. The system matrix is
+//! and shifts the pressure by the gas spring times the miss beyond `g . v+ dt` (a secant
+//! iteration on the shift, see [`Secant`]), solving again while the shift moves it by more
+//! than 0.01 Pa. The system matrix is
 //! symmetric positive definite; the conjugate gradient applies it row by row (the springs of
 //! each particle's 8 neighbours, then one dot product per region for the rank-one terms), never
 //! forming it. Its preconditioner is the diagonal where most particles are held (a cloth
