@@ -68,20 +68,62 @@ fn viewer(script: &Path) {
 struct Xvfb {
     child: Child,
     display: String,
+    /// The display's number.
+    number: u32,
+}
+
+/// The lock file and socket an X server on display `n` keeps while it runs.
+fn display_files(n: u32) -> [String; 2] {
+    [format!("/tmp/.X{n}-lock"), format!("/tmp/.X11-unix/X{n}")]
+}
+
+/// Whether display `n`'s files belong to no running server: its lock names a process that no
+/// longer exists (a server killed without cleaning up), or there is a socket without a lock.
+fn stale(n: u32) -> bool {
+    let [lock, socket] = display_files(n);
+    match std::fs::read_to_string(&lock) {
+        Ok(pid) => match pid.trim().parse::<u32>() {
+            Ok(pid) => !Path::new(&format!("/proc/{pid}")).exists(),
+            Err(_) => false,
+        },
+        Err(_) => Path::new(&socket).exists(),
+    }
 }
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
+        // Asked to stop (SIGTERM), Xvfb removes its lock and socket; killed, it leaves them
+        // behind, and a machine that ran this test fifty times had no display left to use.
+        let stopped = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status()
+            .is_ok_and(|s| s.success());
+        let t = Instant::now();
+        while stopped && t.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
+        // Only files no running server owns (one that won a race for this display keeps its).
+        if stale(self.number) {
+            for f in display_files(self.number) {
+                let _ = std::fs::remove_file(f);
+            }
+        }
     }
 }
 
 fn start_xvfb() -> Xvfb {
     for n in 90..140 {
-        if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()
-            || Path::new(&format!("/tmp/.X{n}-lock")).exists()
-        {
+        let [lock, socket] = display_files(n);
+        if stale(n) {
+            let _ = std::fs::remove_file(&lock);
+            let _ = std::fs::remove_file(&socket);
+        }
+        if Path::new(&socket).exists() || Path::new(&lock).exists() {
             continue;
         }
         let display = format!(":{n}");
@@ -98,10 +140,14 @@ fn start_xvfb() -> Xvfb {
             ),
             Err(e) => panic!("cannot start Xvfb: {e}"),
         };
-        let mut x = Xvfb { child, display };
+        let mut x = Xvfb {
+            child,
+            display,
+            number: n,
+        };
         let t = Instant::now();
         while t.elapsed() < Duration::from_secs(10) {
-            if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
+            if Path::new(&socket).exists() {
                 return x;
             }
             if let Ok(Some(_)) = x.child.try_wait() {
