@@ -16,8 +16,8 @@
 //! its particles (`S N_i`, eq. 3.7; `dV/dx_i` as the thesis spreads it). That spread is not the
 //! gradient of the volume the pressure comes from (eq. 3.10 gives a border particle half an
 //! inner one's share), so for the thesis' bubble the step also measures the volume at its end
-//! and shifts the pressure by the gas spring times the miss beyond `g . v+ dt` (a secant
-//! iteration on the shift, see [`Secant`]), solving again while the shift moves it by more
+//! and shifts the pressure by the gas spring times the miss beyond `g . v+ dt` (a relaxed
+//! iteration on the shift, see [`Relaxation`]), solving again while the shift moves it by more
 //! than 0.01 Pa. The system matrix is
 //! symmetric positive definite; the conjugate gradient applies it row by row (the springs of
 //! each particle's 8 neighbours, then one dot product per region for the rank-one terms), never
@@ -1060,6 +1060,22 @@ impl Implicit {
     /// Solves `A v = rhs` for the free directions, the constrained ones fixed at their values,
     /// by the filtered, preconditioned conjugate gradient from the current `v`, to the relative
     /// residual `tolerance`. Returns the iterations taken.
+    /// [`Implicit::solve`] to `tolerance`, counting its iterations, then `q = A v+` (the
+    /// constraint forces are `(A v+ - b) / dt`).
+    fn solve_and_apply(&mut self, sys: &System<'_>, tolerance: Real) {
+        self.iterations += self.solve(sys, tolerance);
+        self.apply(sys, Which::V, None);
+    }
+
+    /// After a step's final solve: a spring it takes past the strain limit goes onto its stiff
+    /// branch and the step is solved once more (no other constraint changes).
+    fn limit_and_resolve(&mut self, sys: &System<'_>, model: &Model, x: &Soa, dt: Real) {
+        if self.tighten(model, x, dt) {
+            self.precondition(sys);
+            self.solve_and_apply(sys, CG_TOLERANCE);
+        }
+    }
+
     fn solve(&mut self, sys: &System<'_>, tolerance: Real) -> usize {
         let n = self.v.len();
         // The particles with a free direction: the solve runs over them alone.
@@ -1308,7 +1324,7 @@ impl Implicit {
             _ => 0.0,
         };
         let mut miss = 0.0;
-        let mut shift = Secant::default();
+        let mut shift = Relaxation::default();
         // The bubble's volume now (m^3): measured once, the miss is measured after each solve.
         let start_volume = match model.sticking {
             Some(plane) if stiff > 0.0 => {
@@ -1332,17 +1348,9 @@ impl Implicit {
             } else {
                 CG_CONTACT_TOLERANCE
             };
-            self.iterations += self.solve(&sys, tolerance);
-            // `A v+`: the constraint forces are `(A v+ - b) / dt`.
-            self.apply(&sys, Which::V, None);
+            self.solve_and_apply(&sys, tolerance);
             if last {
-                // A spring this last solve takes past the strain limit goes onto its stiff
-                // branch and the step is solved once more (no other constraint changes).
-                if self.tighten(model, &state.x, dt) {
-                    self.precondition(&sys);
-                    self.iterations += self.solve(&sys, CG_TOLERANCE);
-                    self.apply(&sys, Which::V, None);
-                }
+                self.limit_and_resolve(&sys, model, &state.x, dt);
                 break;
             }
             // Release contacts that pull or slip; constrain particles that would land inside
@@ -1441,19 +1449,14 @@ impl Implicit {
             if !changed {
                 // The contact set holds: finish this solve to the full tolerance (and, as after
                 // the last allowed solve, once more if that takes a spring past the limit).
-                self.iterations += self.solve(&sys, CG_TOLERANCE);
-                self.apply(&sys, Which::V, None);
-                if self.tighten(model, &state.x, dt) {
-                    self.precondition(&sys);
-                    self.iterations += self.solve(&sys, CG_TOLERANCE);
-                    self.apply(&sys, Which::V, None);
-                }
+                self.solve_and_apply(&sys, CG_TOLERANCE);
+                self.limit_and_resolve(&sys, model, &state.x, dt);
                 break;
             }
         }
-        // The bubble's pressure, once more from the last (accurate) solve: the solves before it
-        // stop at a hundredth, too early to measure the volume's miss by, and the last one's
-        // own miss was never looked at. The contact set is kept.
+        // The bubble's pressure, once more from the last (accurate) solve: the passes above
+        // measure the miss after solves stopped at CG_CONTACT_TOLERANCE and never after the
+        // last one. The contact set is kept.
         if stiff > 0.0 {
             for _ in 0..PRESSURE_PASSES {
                 let now = self.volume_miss(model, &state.x, start_volume, dt);
@@ -1463,8 +1466,7 @@ impl Implicit {
                 }
                 self.shift_pressure(dp, dt);
                 miss += dp / stiff;
-                self.iterations += self.solve(&sys, CG_TOLERANCE);
-                self.apply(&sys, Which::V, None);
+                self.solve_and_apply(&sys, CG_TOLERANCE);
             }
         }
         self.total_iterations += self.iterations as u64;
@@ -1561,22 +1563,26 @@ const PRESSURE_TOLERANCE: Real = 1e-2;
 /// Most solves after the contact set is settled that only correct the bubble's pressure.
 const PRESSURE_PASSES: usize = 4;
 
-/// The bubble's pressure shift inside a step, found by a safeguarded secant method. The shift
-/// `s` (Pa) the solve applied should equal the gas spring times the volume miss it leads to,
-/// `k miss(s)`: a root of `F(s) = k miss(s) - s`. Taking `s = k miss` (a fixed-point
-/// iteration) converges only while the miss answers a shift by less than the shift itself;
-/// at large steps it does not (the thesis' force `S N_k` and the volume's gradient differ on a
-/// tent's slopes, and the gas spring is stiff), and the pressure swung by tens of pascals from
-/// step to step at 1/60 s. The secant's step is the fixed-point step scaled by
-/// `1 / (1 - F')`, `F'` measured from the last two solves and the scale kept within
-/// [`Secant::MIN_SCALE`] and [`Secant::MAX_SCALE`].
+/// The bubble's pressure shift inside a step, by a relaxed fixed-point iteration whose
+/// relaxation is set from the slope it measures. The shift `s` (Pa) the solve applied should
+/// equal the gas spring times the volume miss it leads to, `k miss(s)`: a root of
+/// `F(s) = k miss(s) - s`. Taking `s = k miss` (the plain fixed-point step `s += F`) converges
+/// only while the miss answers a shift by less than the shift itself; at large steps it does
+/// not (the thesis' force `S N_k` and the volume's gradient differ on a tent's slopes, and the
+/// gas spring is stiff), and the pressure swung by tens of pascals from step to step at 1/60 s.
+/// Here the step is `F / (1 - F')`, `F'` measured from the last two solves and the scale kept
+/// within [`Relaxation::MIN_SCALE`] and [`Relaxation::MAX_SCALE`]. For a miss linear in the
+/// shift, `k miss = a + G' s`, that shrinks the error by `1 / (2 - G')` a solve: it converges
+/// for every slope `G' < 1`, the oscillating ones (`G' < -1`) where the plain step diverges
+/// included. (It is not the secant step `-F / F'`, which would land on a linear miss's root at
+/// once; the measurements in docs/integrators.md are of this one.)
 #[derive(Clone, Copy, Debug, Default)]
-struct Secant {
+struct Relaxation {
     /// The last shift (Pa) and its residual `F` (Pa), if any.
     last: Option<(Real, Real)>,
 }
 
-impl Secant {
+impl Relaxation {
     /// Smallest and largest scale of the fixed-point step: a slope that would ask for less or
     /// more is taken as measured through the noise of a changing contact set.
     const MIN_SCALE: Real = 0.1;
@@ -1587,7 +1593,7 @@ impl Secant {
     fn next(&mut self, s: Real, target: Real) -> Real {
         let f = target - s;
         let scale = match self.last {
-            Some((s0, f0)) if (s - s0).abs() > 0.0 => {
+            Some((s0, f0)) if s != s0 => {
                 let slope = (f - f0) / (s - s0);
                 (1.0 / (1.0 - slope)).clamp(Self::MIN_SCALE, Self::MAX_SCALE)
             }
@@ -1681,4 +1687,46 @@ fn landing_constraint(
         }
     }
     best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A miss that answers a shift linearly, `k miss(s) = a - b s` (`G' = -b`), root `a / (1 +
+    /// b)`. With `b = 2` the plain fixed-point step multiplies the error by `-b` and diverges;
+    /// the relaxed one, after its first (plain) step, shrinks it by `1 / (2 - G') = 1 / 4` a
+    /// solve. With `b = 20` the scale `1 / 22` is below [`Relaxation::MIN_SCALE`] and clamped:
+    /// the error is multiplied by `1 - 0.1 (1 + b) = -1.1` a solve.
+    #[test]
+    fn relaxation_converges_where_the_fixed_point_diverges() {
+        let errors = |b: Real, plain: bool| {
+            let (a, root) = (10.0, 10.0 / (1.0 + b));
+            let mut shift = Relaxation::default();
+            let mut s: Real = 0.0;
+            let mut out = Vec::new();
+            for _ in 0..6 {
+                let target = a - b * s;
+                s += if plain {
+                    target - s
+                } else {
+                    shift.next(s, target)
+                };
+                out.push(s - root);
+            }
+            out
+        };
+        let plain = errors(2.0, true);
+        let relaxed = errors(2.0, false);
+        for w in plain.windows(2) {
+            assert!((w[1] / w[0] + 2.0).abs() < 1e-9, "plain: {plain:?}");
+        }
+        for w in relaxed[1..].windows(2) {
+            assert!((w[1] / w[0] - 0.25).abs() < 1e-9, "relaxed: {relaxed:?}");
+        }
+        let clamped = errors(20.0, false);
+        for w in clamped[1..].windows(2) {
+            assert!((w[1] / w[0] + 1.1).abs() < 1e-9, "clamped: {clamped:?}");
+        }
+    }
 }
