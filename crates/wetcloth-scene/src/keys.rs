@@ -47,6 +47,7 @@ pub const AIR: &[&str] = &[
     "pressure_force",
     "model",
     "seal_distance",
+    "seal_hysteresis",
     "seal_wetness",
     "permeability",
     "dry_permeability",

@@ -91,6 +91,7 @@ struct RawAir {
     pressure_force: Option<Spanned<String>>,
     model: Option<Spanned<String>>,
     seal_distance: Option<Real>,
+    seal_hysteresis: Option<Real>,
     seal_wetness: Option<Real>,
     permeability: Option<Real>,
     dry_permeability: Option<Real>,
@@ -469,6 +470,7 @@ fn convert(
             )?;
         }
         set(&mut air.seal_distance, a.seal_distance);
+        set(&mut air.seal_hysteresis, a.seal_hysteresis);
         set(&mut air.seal_wetness, a.seal_wetness);
         set(&mut air.permeability, a.permeability);
         set(&mut air.dry_permeability, a.dry_permeability);

@@ -113,6 +113,7 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     let _ = writeln!(o, "pressure_force = {}", quote(a.pressure_force.name()));
     let _ = writeln!(o, "model = {}", quote(a.model.name()));
     let _ = writeln!(o, "seal_distance = {}  # m", f(a.seal_distance));
+    let _ = writeln!(o, "seal_hysteresis = {}", f(a.seal_hysteresis));
     let _ = writeln!(o, "seal_wetness = {}", f(a.seal_wetness));
     let _ = writeln!(o, "permeability = {}  # m/(s Pa)", f(a.permeability));
     let _ = writeln!(

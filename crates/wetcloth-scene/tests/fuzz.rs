@@ -168,6 +168,7 @@ const AIR: &[&str] = &[
     "pressure_force",
     "model",
     "seal_distance",
+    "seal_hysteresis",
     "seal_wetness",
     "permeability",
     "dry_permeability",
@@ -242,6 +243,7 @@ fn good(key: &str) -> BoxedStrategy<String> {
             .prop_map(String::from)
             .boxed(),
         "seal_distance" => num(0.0..0.01),
+        "seal_hysteresis" => num(0.0..0.99),
         "permeability" | "dry_permeability" => num(0.0..1e-3),
         "amount" => num(0.0..1e-3),
         "rest_center" => vec_of(vec![num(-0.5..0.5), num(-0.5..0.5)]),

@@ -361,6 +361,7 @@ fn full_config() -> SimConfig {
     ];
     c.air.model = AirModelKind::Pockets;
     c.air.seal_distance = 0.001;
+    c.air.seal_hysteresis = 0.25;
     c.air.seal_wetness = 0.25;
     c.air.permeability = 1e-7;
     c.air.dry_permeability = 2e-4;
@@ -443,6 +444,7 @@ fn every_scene_key_is_written_by_the_resolved_scene() {
         "half_size",
         "model",
         "seal_distance",
+        "seal_hysteresis",
         "seal_wetness",
         "permeability",
         "dry_permeability",

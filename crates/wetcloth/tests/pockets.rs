@@ -406,3 +406,58 @@ fn pockets_with_the_implicit_integrator() {
         "centre {centre} N, corner {corner} N"
     );
 }
+
+/// The seal's wetting hysteresis (`[air] seal_hysteresis`, default 0.5; the seal distance
+/// 0.5 mm): a hand moves one particle of a wet cloth lying sealed on the table to gaps beyond
+/// its radius of 0.4 mm (inside the seal distance, outside half of it), 0.7 mm, 0.4 mm again
+/// and 0.1 mm, holding each for 0.1 s. Sealed before, it stays sealed at 0.4 mm; 0.7 mm opens
+/// it; open, it stays open at 0.4 mm and seals again at 0.1 mm. Without hysteresis (0) it is
+/// sealed at 0.4 mm either way.
+#[test]
+fn a_seal_opens_beyond_the_seal_distance_and_closes_within_half_of_it() {
+    let sealed_at_each_hold = |hysteresis: Real| {
+        let mut cfg = flat_wet(11, 0.1);
+        cfg.air.seal_hysteresis = hysteresis;
+        let gaps = [0.4e-3, 0.7e-3, 0.4e-3, 0.1e-3];
+        let mut keys = vec![wetcloth::GrabKey {
+            time: 0.0,
+            offset: wetcloth::Vec3::ZERO,
+        }];
+        for (i, &g) in gaps.iter().enumerate() {
+            let t = 0.05 + 0.15 * i as Real;
+            keys.push(wetcloth::GrabKey {
+                time: t,
+                offset: wetcloth::Vec3::new(0.0, g, 0.0),
+            });
+            keys.push(wetcloth::GrabKey {
+                time: t + 0.1,
+                offset: wetcloth::Vec3::new(0.0, g, 0.0),
+            });
+        }
+        cfg.grabs = vec![GrabSpec {
+            particle: [5, 5],
+            keys,
+        }];
+        let mut sim = Simulation::new(cfg).unwrap();
+        let k = 5 * 11 + 5;
+        let mut out = Vec::new();
+        for i in 0..gaps.len() {
+            let end = 0.05 + 0.15 * i as Real + 0.1;
+            let left = end - sim.time();
+            run(&mut sim, left, |_| {});
+            let gap = sim.positions().get(k).y - sim.model().radius;
+            assert!(
+                (gap - gaps[i]).abs() < 1e-6,
+                "gap {gap} m, held at {}",
+                gaps[i]
+            );
+            let wetcloth::air::AirModel::Pockets(p) = sim.air() else {
+                panic!("pockets model")
+            };
+            out.push(p.sealed[k]);
+        }
+        out
+    };
+    assert_eq!(sealed_at_each_hold(0.5), [true, false, false, true]);
+    assert_eq!(sealed_at_each_hold(0.0), [true, false, true, true]);
+}

@@ -559,13 +559,18 @@ impl Pockets {
     }
 
     /// Marks the particles that seal (from the gaps of [`Pockets::gaps`]): wet enough and
-    /// within `seal_distance` beyond their radius of a collider's surface, where
+    /// within `seal_distance` beyond their radius of a collider's surface if they sealed
+    /// before (`previous_sealed`), within `seal_distance * (1 - seal_hysteresis)` if not, where
     /// `may_seal(k, touching)` allows (`touching`: within the radius itself).
     fn seal(&mut self, air: &AirParams, model: &Model, may_seal: impl Fn(usize, bool) -> bool) {
-        let reach = model.radius + air.seal_distance;
+        // A sealed particle (in `previous_sealed`, the seal before this one) stays sealed out
+        // to `seal_distance`; an open one seals within the hysteresis' share of it.
+        let keep = model.radius + air.seal_distance;
+        let close = model.radius + air.seal_distance * (1.0 - air.seal_hysteresis);
         for k in 0..self.sealed.len() {
             let gap = self.scratch.gap[k];
             self.touching[k] = gap <= model.radius;
+            let reach = if self.previous_sealed[k] { keep } else { close };
             self.sealed[k] = model.wetness[k] >= air.seal_wetness
                 && gap <= reach
                 && may_seal(k, self.touching[k]);

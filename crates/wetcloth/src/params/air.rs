@@ -30,6 +30,14 @@ pub struct AirParams {
     /// With the pockets model: how far beyond its collision radius a particle still seals
     /// against a surface, m. Default 0.0005; range [0, 0.1].
     pub seal_distance: Real,
+    /// With the pockets model: wetting hysteresis of the seal, a fraction of `seal_distance`. A
+    /// sealed particle stays sealed out to `seal_distance` beyond its radius; an open one seals
+    /// only within `seal_distance * (1 - seal_hysteresis)`: the water film's contact line
+    /// recedes further than it advances. Without it (0) a particle whose gap hovers at the seal
+    /// distance can seal and open on alternate steps, its load jumping between the water
+    /// film's pull and a neighbouring vacuum's (101 kPa) each time. At 1 an open particle seals
+    /// only where it touches. Default 0.5; range [0, 1].
+    pub seal_hysteresis: Real,
     /// With the pockets model: the least wetness at which a particle seals, 0..1. Default 0.5;
     /// range (0, 1] (dry cloth never seals).
     pub seal_wetness: Real,
@@ -174,6 +182,7 @@ impl Default for AirParams {
             pressure_force: PressureForce::Thesis,
             model: AirModelKind::Thesis,
             seal_distance: 0.0005,
+            seal_hysteresis: 0.5,
             seal_wetness: 0.5,
             permeability: 0.0,
             dry_permeability: 1e-4,

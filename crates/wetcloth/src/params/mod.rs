@@ -179,6 +179,7 @@ impl SimConfig {
         check_range("air.trapped_air", a.trapped_air, 0.0, 1e3)?;
         check_range("air.leak_conductance", a.leak_conductance, 0.0, 10.0)?;
         check_range("air.seal_distance", a.seal_distance, 0.0, 0.1)?;
+        check_range("air.seal_hysteresis", a.seal_hysteresis, 0.0, 1.0)?;
         check_open_low("air.seal_wetness", a.seal_wetness, 0.0, 1.0)?;
         check_range("air.permeability", a.permeability, 0.0, 1.0)?;
         check_range("air.dry_permeability", a.dry_permeability, 0.0, 1.0)?;
