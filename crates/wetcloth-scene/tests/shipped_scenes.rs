@@ -158,11 +158,11 @@ fn pockets_middle_runs_implicitly_at_1_600_s() {
 /// pocket's edge hovered at the seal distance and sealed and opened on alternate steps, each
 /// one's load jumping between the water film's pull (300 Pa) and the vacuum's share (51 to
 /// 101 kPa): a period-two rocking of the rim that the strain limit's stiff springs, judged by
-/// one such step's solve, turned into a blow-up. Fix: the seal's wetting hysteresis (`[air]
-/// seal_hysteresis`, 0.5: an open particle seals within half the seal distance, a sealed one
-/// opens beyond all of it). Here the lift (to 1.3 s) at three of those steps: no blow-up, the
-/// threads near the limit, the hand's force that of the held vacuum (measured with the whole
-/// scene: 84.5 to 96.7 N at nine steps from 1/550 to 1/1200 s).
+/// one such step's solve, turned into a blow-up. Fix: the scene sets the seal's wetting
+/// hysteresis (`[air] seal_hysteresis = 0.5`: an open particle seals within half the seal
+/// distance, a sealed one opens beyond all of it). Here the lift (to 1.3 s) at three of those
+/// steps: no blow-up, the threads near the limit, the hand's force that of the held vacuum
+/// (measured with the whole scene: 84.5 to 96.7 N at nine steps from 1/550 to 1/1200 s).
 #[test]
 fn pockets_middle_runs_implicitly_at_nearby_steps() {
     for rate in [550.0, 620.0, 700.0] {
@@ -188,9 +188,9 @@ fn pockets_middle_runs_implicitly_at_nearby_steps() {
 /// while the step judged a landing on the sheet by the plain (unsigned) distance: a particle
 /// the vacuum drove through the plate was measured from the far side, so it was never
 /// "landed" and the strain limit stiffened every spring around it. Measured once: the hand
-/// holds the vacuum tent with 51.5 N at the end (52.2 N at 1/1200 s, 52.5 N at 1/2400 s); the
-/// explicit integrator's projection, which also slides cloth friction holds, reads 20.5 N
-/// (without the limit the two agree: 17.2363 against 17.2427 N).
+/// holds the vacuum tent with 52.3 N at the end (52.4 N at 1/1200 s, 52.6 N at 1/2400 s); the
+/// explicit integrator's projection, which also slides cloth friction holds, reads 20.4 N
+/// (without the limit the two agree: 17.2465 against 17.2418 N).
 #[test]
 fn tilted_lift_runs_implicitly_at_1_600_s() {
     limit_holds_with_the_hand_in("tilted-lift.toml", 30.0..80.0);
@@ -199,9 +199,8 @@ fn tilted_lift_runs_implicitly_at_1_600_s() {
 /// `scenes/pockets-merge.toml`: two pockets of air under a wet cloth, whose seam a hand lifts
 /// until they merge. The hand's peak force (over every step, a spike at the merge) with the
 /// implicit integrator at 1/600 s agrees with the explicit one at the scene's own step within
-/// 5 % (measured: 27.35 against 27.42 N, -0.3 %; before the seal's hysteresis 27.44 against
-/// 28.61 N, -4.1 %, and -0.9 % when the rims start each step without their share, at a third
-/// more solving). A sealed particle on a pocket's rim feels its share
+/// 5 % (measured: 27.44 against 28.61 N, -4.1 %; -0.9 % when the rims start each step without
+/// their share, at a third more solving). A sealed particle on a pocket's rim feels its share
 /// of the pocket's pressure in both; while the implicit step left that share out, its hand
 /// pulled 30.58 N (+6.9 %).
 #[test]
@@ -222,7 +221,6 @@ fn pockets_merge_hand_agrees_between_the_integrators() {
     imp.simulation.time_step = 1.0 / 600.0;
     let steps = (cfg.simulation.duration * 600.0).round() as u64;
     let implicit = peak(Simulation::new(imp).unwrap(), steps);
-    eprintln!("pockets-merge, peak hand force: implicit {implicit} N, explicit {explicit} N");
     assert!(
         explicit > 20.0,
         "the hand holds the merged pocket: {explicit} N"

@@ -35,8 +35,9 @@ pub struct AirParams {
     /// only within `seal_distance * (1 - seal_hysteresis)`: the water film's contact line
     /// recedes further than it advances. Without it (0) a particle whose gap hovers at the seal
     /// distance can seal and open on alternate steps, its load jumping between the water
-    /// film's pull and a neighbouring vacuum's (101 kPa) each time. At 1 an open particle seals
-    /// only where it touches. Default 0.5; range [0, 1].
+    /// film's pull and a neighbouring vacuum's (101 kPa) each time (`scenes/pockets-middle.toml`
+    /// sets 0.5). At 1 an open particle seals only where it touches. Default 0 (a cloth leaving a
+    /// ball keeps its brief suction, `scenes/ball-pull.toml`); range [0, 1].
     pub seal_hysteresis: Real,
     /// With the pockets model: the least wetness at which a particle seals, 0..1. Default 0.5;
     /// range (0, 1] (dry cloth never seals).
@@ -182,7 +183,7 @@ impl Default for AirParams {
             pressure_force: PressureForce::Thesis,
             model: AirModelKind::Thesis,
             seal_distance: 0.0005,
-            seal_hysteresis: 0.5,
+            seal_hysteresis: 0.0,
             seal_wetness: 0.5,
             permeability: 0.0,
             dry_permeability: 1e-4,
