@@ -334,7 +334,8 @@ def main():
     img["pockets-bubbles"] = render(runs["pockets-bubbles"], "beyond-pockets-bubbles", 1.0,
                                     "yaw=-60 pitch=45 distance=0.45 target=0,0,0", extra=tint)
     img["pockets-middle"] = render(runs["pockets-middle"], "beyond-pockets-middle", 1.5,
-                                   "35,40,0.14", extra=tint)
+                                   "yaw=35;pitch=35;distance=0.1;target=0,0.002,0.01",
+                                   extra=tint)
     img["pockets-corner"] = render(runs["pockets-corner"], "beyond-pockets-corner", 1.5,
                                    "yaw=-120 pitch=30 distance=0.22 target=-0.12,0,-0.12",
                                    extra=tint)
