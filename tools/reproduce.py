@@ -279,10 +279,12 @@ def main():
         runs["pinch-fine-permeable"], info["pinch-fine-permeable"], lift_end, [(50, 50)])
     folds["pinch-fine-permeable"] = fold_measures(
         runs["pinch-fine-permeable"], info["pinch-fine-permeable"], lift_end, [(50, 50)])
-    close = "35,40,0.14"
+    # Framed on the pinch (the tent and the hand), a little above the table.
+    close = "yaw=35;pitch=22;distance=0.08;target=0,0.004,0"
     img = {
         "pinch-center": render(runs["pinch-center"], "fig-4-3-pinch-center", lift_end, close),
-        "pinch-two": render(runs["pinch-two"], "fig-4-4-pinch-two", lift_end, "20,40,0.22"),
+        "pinch-two": render(runs["pinch-two"], "fig-4-4-pinch-two", lift_end,
+                            "yaw=20;pitch=35;distance=0.2;target=0,0.002,0.01"),
         "air-0": render(runs["air-0"], "fig-4-5-air-0", lift_end, close),
         "air-400": render(runs["air-400"], "fig-4-6-air-400", 1.75, "35,25,0.5"),
         "pinch-dry": render(runs["pinch-dry"], "baseline-pinch-dry", lift_end, "35,25,0.5"),
