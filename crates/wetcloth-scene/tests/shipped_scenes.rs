@@ -166,12 +166,7 @@ fn pockets_middle_runs_implicitly_at_1_600_s() {
 #[test]
 fn pockets_middle_runs_implicitly_at_nearby_steps() {
     for rate in [550.0, 620.0, 700.0] {
-        let mut cfg = scene("pockets-middle.toml").config;
-        cfg.simulation.integrator = wetcloth::Integrator::Implicit;
-        cfg.simulation.time_step = 1.0 / rate;
-        let mut sim = Simulation::new(cfg).unwrap();
-        sim.advance((1.3 * rate).round() as u64)
-            .unwrap_or_else(|e| panic!("pockets-middle at 1/{rate} s: {e}"));
+        let sim = implicit_run("pockets-middle.toml", rate, Some(1.3));
         let m = sim.metrics();
         assert!(
             m.max_stretch < 0.12,
@@ -244,12 +239,18 @@ fn limit_holds_with_the_hand_in(name: &str, range: std::ops::Range<Real>) {
 
 /// The shipped scene `name` run to its end with the implicit integrator at 1/600 s.
 fn implicit_at_1_600_s(name: &str) -> Simulation {
+    implicit_run(name, 600.0, None)
+}
+
+/// The shipped scene `name` run with the implicit integrator at `1 / rate` s for `seconds`
+/// (its whole duration with `None`).
+fn implicit_run(name: &str, rate: Real, seconds: Option<Real>) -> Simulation {
     let mut cfg = scene(name).config;
     cfg.simulation.integrator = wetcloth::Integrator::Implicit;
-    cfg.simulation.time_step = 1.0 / 600.0;
-    let steps = (cfg.simulation.duration * 600.0).round() as u64;
+    cfg.simulation.time_step = 1.0 / rate;
+    let steps = (seconds.unwrap_or(cfg.simulation.duration) * rate).round() as u64;
     let mut sim = Simulation::new(cfg).unwrap();
     sim.advance(steps)
-        .unwrap_or_else(|e| panic!("{name} at 1/600 s: {e}"));
+        .unwrap_or_else(|e| panic!("{name} at 1/{rate} s: {e}"));
     sim
 }

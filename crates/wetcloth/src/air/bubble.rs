@@ -61,8 +61,8 @@ impl Bubble {
     /// Phase 2: how the step's pressure force is set. With the air force off, or
     /// [`PressureSolve::Explicit`], or no trapped air (a vacuum), the pressure is known now:
     /// Boyle's law on the current volume, recorded as [`Bubble::applied_pressure`]. Otherwise
-    /// the integrator solves it at the end of the step ([`EndOfStep`]) and records it with
-    /// [`Bubble::set_applied_pressure`].
+    /// the integrator solves it at the end of the step ([`EndOfStep`]) and records it in
+    /// [`Bubble::applied_pressure`].
     pub(crate) fn begin_step(
         &mut self,
         air: &AirParams,

@@ -201,7 +201,7 @@ impl SpringSet {
 
     /// Linearises the springs `e` in `range` between particles `e + oa` and `e + ob` of `x`
     /// (stiffness `k`, rest length `l`), and stores each one's force on its first particle in
-    /// `w`: [`SpringSet::set`] over contiguous slices, which the compiler vectorises.
+    /// `w`, over contiguous slices, which the compiler vectorises.
     fn set_range(
         &mut self,
         x: &Soa,
@@ -1057,9 +1057,6 @@ impl Implicit {
         cholesky(&mut self.gas_chol, m);
     }
 
-    /// Solves `A v = rhs` for the free directions, the constrained ones fixed at their values,
-    /// by the filtered, preconditioned conjugate gradient from the current `v`, to the relative
-    /// residual `tolerance`. Returns the iterations taken.
     /// [`Implicit::solve`] to `tolerance`, counting its iterations, then `q = A v+` (the
     /// constraint forces are `(A v+ - b) / dt`).
     fn solve_and_apply(&mut self, sys: &System<'_>, tolerance: Real) {
@@ -1076,6 +1073,9 @@ impl Implicit {
         }
     }
 
+    /// Solves `A v = rhs` for the free directions, the constrained ones fixed at their values,
+    /// by the filtered, preconditioned conjugate gradient from the current `v`, to the relative
+    /// residual `tolerance`. Returns the iterations taken.
     fn solve(&mut self, sys: &System<'_>, tolerance: Real) -> usize {
         let n = self.v.len();
         // The particles with a free direction: the solve runs over them alone.
@@ -1572,9 +1572,11 @@ const PRESSURE_PASSES: usize = 4;
 /// gas spring is stiff), and the pressure swung by tens of pascals from step to step at 1/60 s.
 /// Here the step is `F / (1 - F')`, `F'` measured from the last two solves and the scale kept
 /// within [`Relaxation::MIN_SCALE`] and [`Relaxation::MAX_SCALE`]. For a miss linear in the
-/// shift, `k miss = a + G' s`, that shrinks the error by `1 / (2 - G')` a solve: it converges
-/// for every slope `G' < 1`, the oscillating ones (`G' < -1`) where the plain step diverges
-/// included. (It is not the secant step `-F / F'`, which would land on a linear miss's root at
+/// shift, `k miss = a + G' s`, that shrinks the error by `1 / (2 - G')` a solve for every slope
+/// `G' < 1` down to `-8`, the oscillating ones (`G' < -1`) where the plain step diverges
+/// included; below `-8` the scale's floor binds and the error is multiplied by
+/// `1 - 0.1 (1 - G')` a solve, which still shrinks it down to `G' = -19` and no further (the
+/// unit test measures both regimes). (It is not the secant step `-F / F'`, which would land on a linear miss's root at
 /// once; the measurements in docs/integrators.md are of this one.)
 #[derive(Clone, Copy, Debug, Default)]
 struct Relaxation {
