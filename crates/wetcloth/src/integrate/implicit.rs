@@ -908,28 +908,37 @@ impl Implicit {
         }
     }
 
-    /// The sliding contact of a held particle `k` (contact normal, normal velocity, friction
-    /// coefficient) whose tangential impulse `shear` left the friction cone of the normal
-    /// impulse `push` (N s), `v0` its velocity at the step's start: against a drag for the
-    /// speed it had then, or, if faster, the speed the force beyond the cone gives it against
-    /// its own row's stiffness ([`Implicit::slip_speed`]).
-    fn slide(
+    /// What a contact held by static friction at particle `k` (contact normal, normal
+    /// velocity, friction coefficient) becomes after the last solve, if it changes: free if its
+    /// normal impulse pulls; sliding if its tangential impulse left the friction cone, against
+    /// a drag for the speed it had at the step's start or, if faster, the speed the impulse
+    /// beyond the cone gives it against its own row's stiffness ([`Implicit::slip_speed`]).
+    fn held_change(
         &self,
         k: usize,
         (n, vn, mu): (Vec3, Real, Real),
-        push: Real,
-        shear: Real,
-        v0: Vec3,
-    ) -> Constraint {
+        state: &State,
+        dt: Real,
+    ) -> Option<Constraint> {
+        let lambda = self.q.get(k) - self.rhs.get(k);
+        let push = lambda.dot(n);
+        let shear = (lambda - n * push).length();
+        if push < 0.0 {
+            return Some(Constraint::Free);
+        }
+        if shear <= mu * push {
+            return None;
+        }
+        let v0 = state.velocity(k, dt);
         let vt = (v0 - n * n.dot(v0))
             .length()
             .max(self.slip_speed(k, n, shear - mu * push));
-        Constraint::Normal {
+        Some(Constraint::Normal {
             n,
             vn,
             mu,
             drag: mu * push / vt.max(SLIDE_EPSILON),
-        }
+        })
     }
 
     /// The tangential speed (m/s) at which a held particle `k` starts to slide when the
@@ -987,17 +996,11 @@ impl Implicit {
                     changed = true;
                 }
                 Constraint::Stick { n, vn, mu } => {
-                    let push = lambda.dot(n);
-                    let shear = (lambda - n * push).length();
-                    if push < 0.0 {
-                        self.constraints[k] = Constraint::Free;
-                        changed = true;
-                    } else if shear > mu * push {
-                        let v0 = state.velocity(k, dt);
-                        self.constraints[k] = self.slide(k, (n, vn, mu), push, shear, v0);
+                    if let Some(c) = self.held_change(k, (n, vn, mu), state, dt) {
+                        self.constraints[k] = c;
+                        self.precondition_one(k);
                         changed = true;
                     }
-                    self.precondition_one(k);
                 }
                 _ => {}
             }
@@ -1504,16 +1507,8 @@ impl Implicit {
                     }
                     Constraint::Stick { n: normal, vn, mu } => {
                         // Inside the friction cone, or sliding, or pulling free.
-                        let lambda = self.q.get(k) - self.rhs.get(k);
-                        let push = lambda.dot(normal);
-                        let shear = (lambda - normal * push).length();
-                        if push < 0.0 {
-                            self.constraints[k] = Constraint::Free;
-                            changed = true;
-                        } else if shear > mu * push {
-                            // Slides, against kinetic friction.
-                            let v0 = state.velocity(k, dt);
-                            self.constraints[k] = self.slide(k, (normal, vn, mu), push, shear, v0);
+                        if let Some(c) = self.held_change(k, (normal, vn, mu), state, dt) {
+                            self.constraints[k] = c;
                             self.precondition_one(k);
                             changed = true;
                         }
