@@ -89,7 +89,7 @@ const CONTACT_PASSES: usize = 8;
 /// speed with less than Coulomb's friction. At 1 mm/s that creep showed: a dry cloth lifted
 /// by a corner over 1.5 s (no air, 50 x 50, friction 0.6) slid 4.0 mm towards the hand against
 /// the explicit integrator's 3.5 mm and peeled 317 particles off the table against 362, and
-/// it crept more the smaller the step (1/2400 s: 4.1 mm, 305); at 0.01 mm/s it agrees (3.54
+/// it crept more the smaller the step (1/2400 s: 4.1 mm, 305); at 0.01 mm/s it agrees (3.53
 /// mm, 362 particles, at 1/2400 s).
 pub const SLIDE_EPSILON: Real = 1e-5;
 
@@ -945,11 +945,12 @@ impl Implicit {
     /// tangential impulse holding it exceeds the friction cone by `excess` (N s): that impulse
     /// over its row's tangential diagonal (inertia and its springs' `dt^2` stiffness, kg), as
     /// if its neighbours stood still. A lower bound (they give way too), so the slide's first
-    /// drag, `mu F_n` over this speed, is at most the Coulomb drag of the true slide. Starting
+    /// drag, `mu F_n` over this speed, is at least the true slide's: its first solve errs
+    /// towards friction, and the next solves loosen it ([`Implicit::slide_drag`]). Starting
     /// a slide at the speed it had at the step's start alone (at rest: [`SLIDE_EPSILON`])
     /// made a slide's first solve a thousand times too stiff, and the lagged drag took the
     /// step's solves to loosen: at coarse steps the slide came out short (measured on the
-    /// vacuum pinch: the hand's force 3.7 % high at 1/120 s, now 0.6 % low).
+    /// vacuum pinch: the hand's force 3.7 % high at 1/120 s, now 0.7 % low).
     fn slip_speed(&self, k: usize, normal: Vec3, excess: Real) -> Real {
         let a = self.diag_base.get(k);
         let tangential = 0.5 * (a.x + a.y + a.z - (a * normal).dot(normal));
