@@ -407,8 +407,8 @@ fn pockets_with_the_implicit_integrator() {
     );
 }
 
-/// The seal's wetting hysteresis (`[air] seal_hysteresis`, default 0.5; the seal distance
-/// 0.5 mm): a hand moves one particle of a wet cloth lying sealed on the table to gaps beyond
+/// The seal's wetting hysteresis (`[air] seal_hysteresis`, here 0.5, default 0; the seal
+/// distance 0.5 mm): a hand moves one particle of a wet cloth lying sealed on the table to gaps beyond
 /// its radius of 0.4 mm (inside the seal distance, outside half of it), 0.7 mm, 0.4 mm again
 /// and 0.1 mm, holding each for 0.1 s. Sealed before, it stays sealed at 0.4 mm; 0.7 mm opens
 /// it; open, it stays open at 0.4 mm and seals again at 0.1 mm. Without hysteresis (0) it is

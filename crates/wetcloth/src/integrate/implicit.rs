@@ -972,6 +972,7 @@ impl Implicit {
     /// threads passed the 10 % limit by 7 %.
     fn slide_drag(&self, k: usize, normal: Vec3, friction: Real, vt: Real, drag: Real) -> Real {
         let lagged = friction / vt.max(SLIDE_EPSILON);
+        // The row's tangential diagonal (kg), as `slip_speed` divides by it.
         let a = self.slip_speed(k, normal, 1.0).recip();
         let f = vt * (a + drag);
         if f > friction {
@@ -1679,8 +1680,8 @@ const PRESSURE_PASSES: usize = 4;
 /// `G' < 1` down to `-8`, the oscillating ones (`G' < -1`) where the plain step diverges
 /// included; below `-8` the scale's floor binds and the error is multiplied by
 /// `1 - 0.1 (1 - G')` a solve, which still shrinks it down to `G' = -19` and no further (the
-/// unit test measures both regimes). (It is not the secant step `-F / F'`, which would land on a linear miss's root at
-/// once; the measurements in docs/integrators.md are of this one.)
+/// unit test measures both regimes). (It is not the secant step `-F / F'`, which would land on
+/// a linear miss's root at once; the measurements in docs/integrators.md are of this one.)
 #[derive(Clone, Copy, Debug, Default)]
 struct Relaxation {
     /// The last shift (Pa) and its residual `F` (Pa), if any.
