@@ -2,13 +2,14 @@
 //! stored and continued bit for bit.
 //!
 //! A [`Checkpoint`] holds the parts of a [`Simulation`] that are not rebuilt from its
-//! configuration: the [`State`] (positions, motion, contacts, step count), the [`Control`]
-//! (grabs with their anchors and last targets, which particles are held, the hands' work so
-//! far, the air switch), the [`AirModel`] (the thesis' bubble or the sealed pockets with their
-//! ids, amounts and sealing state), the self-collision neighbour lists with their reference
-//! positions, the cell measures of the current state and the energy audit. The model (grid,
-//! masses, colliders) is rebuilt from the configuration, and the integrator's buffers are
-//! scratch that every step overwrites before reading, so neither is stored.
+//! configuration: the [`State`] (positions, motion, contacts and their slides' friction, step
+//! count), the [`Control`] (grabs with their anchors and last targets, which particles are
+//! held, the hands' work so far, the air switch), the [`AirModel`] (the thesis' bubble or the
+//! sealed pockets with their ids, amounts and sealing state), the self-collision neighbour
+//! lists with their reference positions, the cell measures of the current state and the
+//! energy audit. The model (grid, masses, colliders) is rebuilt from the configuration, and
+//! the integrator's buffers are scratch that every step overwrites before reading, so neither
+//! is stored.
 //! [`Simulation::restore`] builds a simulation from the configuration and a checkpoint;
 //! stepping it gives exactly the numbers the original would have given (see the test
 //! `checkpoint_restore_continues_bit_for_bit` in `tests/checkpoint.rs`).
@@ -36,7 +37,7 @@ use crate::sim::Simulation;
 use crate::state::{Motion, State};
 
 /// Version of a checkpoint's contents; raised whenever a stored type changes.
-pub const CHECKPOINT_VERSION: u32 = 1;
+pub const CHECKPOINT_VERSION: u32 = 2;
 
 /// Everything a step carries to the next (see the module docs).
 #[derive(Clone, Debug)]
@@ -120,6 +121,9 @@ impl Checkpoint {
                 "{} contact flags for {n} particles",
                 s.contact.len()
             ));
+        }
+        if s.slides.len() != n {
+            return bad(format!("{} slides for {n} particles", s.slides.len()));
         }
         let c = &self.control;
         if c.held.len() != n || c.targets.len() > c.grabs.len() {

@@ -18,6 +18,15 @@ use crate::params::SimConfig;
 use crate::state::State;
 
 pub use crate::checks::BLOWUP_STRETCH;
+
+/// Most times the implicit integrator halves one step ([`Simulation::step`]): down to a
+/// sixteenth of the time step.
+pub const MAX_HALVINGS: u32 = 4;
+
+/// How far beyond the strain limit, as a share of the limit, a step of the implicit integrator
+/// may end before it is taken again as two of half the time step: 0.25 (a 10 % limit holds
+/// to 12.5 %).
+pub const HALVING_STRETCH: Real = 0.25;
 pub use crate::exec::{PARALLEL_MIN_PARTICLES, PARALLEL_MIN_PARTICLES_IN_POOL};
 
 /// A wet cloth on its colliders, with trapped air and grabs.
@@ -40,6 +49,8 @@ pub struct Simulation {
     strain: strain_limit::Scratch,
     /// The energy budget of the blow-up checks.
     audit: EnergyAudit,
+    /// Steps the implicit integrator took again as two of half the time step, since t = 0.
+    halvings: u64,
 }
 
 impl Simulation {
@@ -71,6 +82,7 @@ impl Simulation {
             measures: Measures::for_grid(&model.grid, AirModel::keeps_cells(&config.air)),
             strain: strain_limit::Scratch::default(),
             audit: EnergyAudit::default(),
+            halvings: 0,
             model,
             config,
         };
@@ -165,6 +177,14 @@ impl Simulation {
     /// Steps taken since t = 0.
     pub fn step_count(&self) -> u64 {
         self.state.steps
+    }
+
+    /// Steps the implicit integrator took again as two of half the time step since this
+    /// simulation was built (counting each halving, nested ones too): where a step of the
+    /// configured size would break the strain limit by more than [`HALVING_STRETCH`] times the
+    /// limit, or blow up. Zero for the explicit integrator.
+    pub fn halvings(&self) -> u64 {
+        self.halvings
     }
 
     /// The time step, s.
@@ -414,10 +434,62 @@ impl Simulation {
     ///    step ([`crate::collide`], [`crate::constraints`]).
     /// 6. **Measure and check** (3.5): the new bubble volume (eq. 3.10) and the blow-up checks
     ///    ([`crate::checks`]); measured in phase 3 unless phase 5 moved particles.
+    ///
+    /// With the implicit integrator a step whose end breaks the strain limit by more than a
+    /// quarter of it, or fails a blow-up check, is taken again as two steps of half the time
+    /// step (and so on, at most [`MAX_HALVINGS`] times): see [`Simulation::halvings`].
     pub fn step(&mut self) -> Result<(), StepError> {
         let dt = self.config.simulation.time_step;
         let t_next = (self.state.steps + 1) as Real * dt;
+        if self.config.simulation.integrator == crate::params::Integrator::Implicit {
+            self.adaptive_span(t_next, dt, 0)?;
+        } else {
+            self.span(t_next, dt)?;
+        }
+        self.state.steps += 1;
+        self.audit_energy()
+    }
 
+    /// The time from `t_next - dt` to `t_next` as one step of `dt`, or, where that step breaks the
+    /// strain limit by more than [`HALVING_STRETCH`] times the limit or fails a blow-up
+    /// check, as two of half of it (each again so, `depth` halvings deep so far). The state
+    /// carries Verlet's previous positions for `dt` before and after.
+    fn adaptive_span(&mut self, t_next: Real, dt: Real, depth: u32) -> Result<(), StepError> {
+        if depth >= MAX_HALVINGS {
+            return self.span(t_next, dt);
+        }
+        let saved = self.checkpoint();
+        let result = self.span(t_next, dt);
+        let limit = self.config.cloth.strain_limit;
+        let broken = limit > 0.0
+            && self.measures.totals().stretch2.sqrt() > 1.0 + (1.0 + HALVING_STRETCH) * limit;
+        if result.is_ok() && !broken {
+            return result;
+        }
+        let Checkpoint {
+            state,
+            control,
+            air,
+            self_collision,
+            measures,
+            ..
+        } = saved;
+        (self.state, self.control, self.air) = (state, control, air);
+        (self.self_collision, self.measures) = (self_collision, measures);
+        self.halvings += 1;
+        let half = 0.5 * dt;
+        self.state.use_velocities(dt);
+        self.state.use_previous_positions(half);
+        self.adaptive_span(t_next - half, half, depth + 1)?;
+        self.adaptive_span(t_next, half, depth + 1)?;
+        self.state.use_velocities(half);
+        self.state.use_previous_positions(dt);
+        Ok(())
+    }
+
+    /// Phases 1 to 6 (without the energy audit) of a step of `dt` ending at `t_next`; the step
+    /// count is left to the caller.
+    fn span(&mut self, t_next: Real, dt: Real) -> Result<(), StepError> {
         // 1. Input.
         self.control.begin_step(&self.state.x, t_next, dt);
 
@@ -462,15 +534,13 @@ impl Simulation {
         );
 
         // 5. Corrections.
-        let corrected = self.correct(moved2);
+        let corrected = self.correct(moved2, t_next, dt);
 
         // 6. Measure and check.
-        self.state.steps += 1;
         if corrected {
             self.remeasure_all();
         }
-        self.finish_measures()?;
-        self.audit_energy()
+        self.finish_measures_at(t_next, dt)
     }
 
     /// The checks of [`crate::checks`] beyond the measures: the sign of the bubble, and every
@@ -496,10 +566,9 @@ impl Simulation {
     /// Phase 5: self-collision and the collider re-projection, then strain limiting; `moved2` is how
     /// far (squared, m^2) the integrator moved particles from the self-collision lists'
     /// reference. Returns whether anything moved.
-    fn correct(&mut self, moved2: Real) -> bool {
+    fn correct(&mut self, moved2: Real, end: Real, dt: Real) -> bool {
         let (model, state, control) = (&self.model, &mut self.state, &self.control);
         // The colliders where they are at the end of the step (a copy only if any moves).
-        let end = (state.steps + 1) as Real * self.config.simulation.time_step;
         let colliders: std::borrow::Cow<'_, [crate::collide::Collider]> = if model.moving.is_empty()
         {
             std::borrow::Cow::Borrowed(&model.colliders)
@@ -553,7 +622,6 @@ impl Simulation {
             .corrected;
             // A hand holds its particle against the limit's pull too (the springs' share is
             // in its force already).
-            let dt = self.config.simulation.time_step;
             for &(k, pull) in self.strain.pulls() {
                 for g in &mut self.control.grabs {
                     if g.particle == k as usize {
@@ -585,15 +653,20 @@ impl Simulation {
 
     /// Checks the measures of the current state and hands the new volume to the air model.
     fn finish_measures(&mut self) -> Result<(), StepError> {
+        self.finish_measures_at(self.time(), self.config.simulation.time_step)
+    }
+
+    /// [`Simulation::finish_measures`] at the end of a step of `dt` (s) ending at `time` (s).
+    fn finish_measures_at(&mut self, time: Real, dt: Real) -> Result<(), StepError> {
         let totals = self.measures.totals();
-        checks::check(&totals, self.time())?;
+        checks::check(&totals, time)?;
         self.air.finish_step(
             &self.config.air,
             &self.model,
             &self.state,
             &self.measures,
             totals.volume,
-            self.config.simulation.time_step,
+            dt,
         );
         Ok(())
     }

@@ -17,6 +17,21 @@ pub enum Motion {
     Velocity(Soa),
 }
 
+/// How a particle's contact with a collider ended a step of the implicit integrator (see
+/// `integrate::implicit`'s `Constraint::Normal`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum Slide {
+    /// Not sliding: held by static friction, free, or not stepped by the implicit integrator.
+    #[default]
+    None,
+    /// Sliding against Coulomb's kinetic friction of this magnitude, N.
+    Kinetic(Real),
+    /// Sliding against a drag of this rate, N per m/s: a slide friction stopped within the
+    /// step, moving on more slowly.
+    Drag(Real),
+}
+
 /// Positions, motion, contact flags and the step count.
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -27,6 +42,10 @@ pub struct State {
     pub motion: Motion,
     /// Whether each particle touched a collider during the last step.
     pub contact: Vec<bool>,
+    /// How each particle's contact with a collider ended the last step (`Slide::None` where it
+    /// was held, free, or stepped by the explicit integrator): the implicit step starts a
+    /// contact that was sliding, and still moves, sliding against the friction it had.
+    pub slides: Vec<Slide>,
     /// Steps taken since t = 0.
     pub steps: u64,
 }
@@ -39,6 +58,7 @@ impl State {
             motion: Motion::Previous(x.clone()),
             x,
             contact: vec![false; n],
+            slides: vec![Slide::None; n],
             steps: 0,
         }
     }

@@ -169,23 +169,26 @@ fn pinch_measures(integrator: Integrator, dt: Real) -> [Real; 3] {
 /// The pinch of a cloth stuck by the atmosphere, as the explicit integrator at its fine step
 /// (1/12000 s) measures it: the hand's force (5.69 N: the atmosphere on the pinched particle's
 /// area plus the springs, with the neighbours slipping 0.37 mm towards the pinch), and the tent's
-/// height. Static friction is a constraint in the solve, released into kinetic friction (an
-/// implicit drag, updated from solve to solve) when the force leaves the cone. While a slide's
-/// first drag came from its speed at the step's start (at rest: 1 mm/s), the first step of a
-/// slide was too short, which the coarse steps felt: 3.7 % high at 1/120 s, 1.9 % at 1/300 s,
-/// 0.4 % low at 1/600 s and 1/2400 s. With the first drag from the force beyond the cone
-/// (`Implicit::slip_speed`): 0.7 % and 0.8 % low at 1/120 and 1/300 s, 0.34 % and 0.08 % low
-/// at 1/600 and 1/2400 s. Required: within 2 % at the coarse steps, 1 % from 1/600 s down (the
-/// issue's target is 10 %), the tent's height to 1 %, and the finest step closer than the
-/// coarsest.
+/// height. Static friction is a constraint in the solve, released into kinetic friction when
+/// the force leaves the cone: Coulomb's `mu F_n` against the slide, linearised at its velocity
+/// from solve to solve (a Newton step), and carried from step to step while the contact
+/// slides. Measured: +0.006, +0.006, +0.008 and -0.042 % at 1/120, 1/300, 1/600 and 1/2400 s,
+/// within the explicit integrator's own spread (5.6897 to 5.6921 N at 1/12000, 1/24000 and
+/// 1/50000 s: 0.04 %). While kinetic friction was a drag lagged from solve to solve (`mu F_n`
+/// over the speed of the solve before), the slide came out short at coarse steps: 3.7 %, 1.9 %,
+/// 0.4 % and 0.4 % too high; with its first drag from the force beyond the cone
+/// (`Implicit::slip_speed`) still 0.7 %, 0.8 %, 0.34 % and 0.08 % low. Required: within 0.1 %
+/// at every step (the target is 10 %) and the tent's height to 1 %. (The convergence
+/// in the step that the earlier errors showed is below the reference's own resolution now; the
+/// free fall's test measures the order.)
 #[test]
 fn implicit_pinch_agrees_with_the_explicit_integrator_and_converges() {
     let reference = pinch_measures(Integrator::Verlet, 1.0 / 12000.0);
     let steps = [
-        (1.0 / 120.0, 0.02),
-        (1.0 / 300.0, 0.02),
-        (1.0 / 600.0, 0.01),
-        (1.0 / 2400.0, 0.01),
+        (1.0 / 120.0, 1e-3),
+        (1.0 / 300.0, 1e-3),
+        (1.0 / 600.0, 1e-3),
+        (1.0 / 2400.0, 1e-3),
     ];
     let measured: Vec<[Real; 3]> = steps
         .iter()
@@ -202,7 +205,6 @@ fn implicit_pinch_agrees_with_the_explicit_integrator_and_converges() {
         );
         assert!((m[2] - reference[2]).abs() < 0.01 * reference[2], "{m:?}");
     }
-    assert!(errors[3].abs() < errors[0].abs(), "converges: {errors:?}");
 }
 
 /// A vacuum pinch held for 2 s at 1/600 s: after the lift the cloth neither creeps (no particle
@@ -382,12 +384,14 @@ fn implicit_floating_cloth_solves_in_few_iterations() {
 /// Found before: Provot's projection after the implicit step slid particles that static
 /// friction held, the next step's friction kept the strain it left, and a 100 x 100 pinch
 /// gained 0.77 J until the energy audit stopped it. Here every step passes the audit, the
-/// threads never stretch past 13 % (measured 12.25 %, for one step while the pinch peels off
-/// the table: a particle that lands then keeps the slide its impact's friction cannot stop;
-/// 11.19 % when every landing particle was held; 10.15 % once the lift has settled), the cloth
-/// gains nothing beyond the hand's work (measured: nothing), and the cloth, now nearly
-/// inextensible, lifts more of itself against the atmosphere than without the limit, so the
-/// hand pulls harder (measured 23.2 N against 5.7 N).
+/// threads never stretch past 13 % (measured 11.45 %, for one step as the lift starts; 12.25 %
+/// while kinetic friction was a drag alone and every contact started a step held; 10.0 % once
+/// the lift has settled), the cloth gains nothing beyond the hand's work (measured: nothing),
+/// and the cloth, now nearly inextensible, is drawn in over the table towards the pinch, so
+/// the hand pulls harder (measured 11.8 N against 5.7 N). (While every contact started a step
+/// held, static friction gripped the cloth anew each step and the pinch lifted five more
+/// particles off the table instead, with 23.2 N; the explicit integrator, whose strain limit
+/// is Provot's projection, slides it in with no more lifted, 4.4 N at 1/50000 s.)
 #[test]
 fn implicit_strain_limit_holds_the_pinch_without_gaining_energy() {
     let at = |limit: Real| {
@@ -395,8 +399,17 @@ fn implicit_strain_limit_holds_the_pinch_without_gaining_energy() {
         cfg.cloth.strain_limit = limit;
         Simulation::new(cfg).unwrap()
     };
+    // How far the pinch's neighbour lies from it across the table, and its thread's length, m.
+    let reach = |sim: &Simulation| {
+        let (p, q) = (sim.positions().get(220), sim.positions().get(221));
+        (
+            ((p.x - q.x).powi(2) + (p.z - q.z).powi(2)).sqrt(),
+            (p - q).length(),
+        )
+    };
     let mut free = at(0.0);
     run(&mut free, 0.15);
+    let free_reach = reach(&free);
     let free = free.metrics();
     let mut sim = at(0.1);
     let dt = sim.time_step();
@@ -411,10 +424,10 @@ fn implicit_strain_limit_holds_the_pinch_without_gaining_energy() {
         worst = worst.max(sim.metrics().max_stretch);
         gain = gain.max(energy(&sim) - e0 - sim.control().hand_work());
         if step == (0.15 / dt).round() as usize {
-            at_lift = Some(sim.metrics());
+            at_lift = Some((sim.metrics(), reach(&sim)));
         }
     }
-    let limited = at_lift.unwrap();
+    let (limited, limited_reach) = at_lift.unwrap();
     assert!(
         free.max_stretch > 0.2,
         "without the limit: {}",
@@ -425,11 +438,21 @@ fn implicit_strain_limit_holds_the_pinch_without_gaining_energy() {
         gain < 1e-3,
         "the cloth gained {gain} J beyond the hand's work"
     );
+    // Without the limit the neighbour slips 0.36 mm towards the pinch (the explicit
+    // integrator's 0.37 mm) and its thread stretches to 7.5 mm; with it the thread stays at
+    // 1.1 times its 6 mm and the neighbour, still on the table, slides in until it is
+    // sqrt(6.6^2 - 5^2) = 4.31 mm from the pinch (measured 4.3095 mm).
+    let rest = 0.12 / 20.0;
     assert!(
-        limited.contact_fraction < free.contact_fraction,
-        "lifts more: {} against {}",
-        limited.contact_fraction,
-        free.contact_fraction
+        limited_reach.1 < 1.1 * rest * 1.002,
+        "thread {} m",
+        limited_reach.1
+    );
+    assert!(
+        limited_reach.0 < free_reach.0 - 1e-3,
+        "slides in: {} m against {} m",
+        limited_reach.0,
+        free_reach.0
     );
     assert!(
         limited.grab_force > 2.0 * free.grab_force,
@@ -652,4 +675,40 @@ fn implicit_cloth_dragged_over_the_table_pulls_coulombs_kinetic_friction() {
             m * 9.8
         );
     }
+}
+
+/// A step of the implicit integrator that ends with a thread beyond the strain limit by more
+/// than a quarter of the limit is taken again as two steps of half the time step (down to a
+/// sixteenth): the small strain-limited pinch lifted in 0.1 s at 1/60 s (six steps for the
+/// lift) halves some of its steps and keeps every thread within 12.5 % at every step, while
+/// the same lift without the limit, and a cloth lying still, halve none.
+#[test]
+fn implicit_steps_that_break_the_strain_limit_are_halved() {
+    let run_for = |limit: Real| {
+        let mut cfg = small_pinch(Integrator::Implicit, 1.0 / 60.0);
+        cfg.cloth.strain_limit = limit;
+        let mut sim = Simulation::new(cfg).unwrap();
+        let mut worst: Real = 0.0;
+        for _ in 0..18 {
+            sim.step().expect("no blow-up");
+            worst = worst.max(sim.metrics().max_stretch);
+        }
+        (sim.halvings(), worst)
+    };
+    let (halved, worst) = run_for(0.1);
+    assert!(halved > 0, "no step halved (worst stretch {worst})");
+    assert!(worst <= 0.125 + 1e-9, "threads stretched {worst}");
+    let (free, stretched) = run_for(0.0);
+    assert_eq!(free, 0, "without the limit ({stretched})");
+    let mut still = SimConfig::thesis_demo();
+    still.cloth.resolution = [12, 12];
+    still.cloth.strain_limit = 0.1;
+    still.cloth.position.y = still.cloth.particle_radius();
+    still.air.trapped_air = 0.0;
+    still.grabs.clear();
+    still.simulation.integrator = Integrator::Implicit;
+    still.simulation.time_step = 1.0 / 60.0;
+    let mut sim = Simulation::new(still).unwrap();
+    run(&mut sim, 0.5);
+    assert_eq!(sim.halvings(), 0);
 }

@@ -36,9 +36,12 @@
 //! and a particle that would land inside a collider is constrained, and the system solved
 //! again. Coulomb friction (eq. 3.5) is in the solve: a touching particle starts held (its
 //! tangential velocity zero) and slides once the force that holds it leaves the cone
-//! `|F_t| <= mu F_n`; a slide feels kinetic friction as a drag `mu F_n / |v_t|` against its
-//! own velocity (see [`Constraint::Normal`]), so on a slope of angle theta it accelerates at
-//! `g (sin theta - mu cos theta)` at any step, and friction never does positive work.
+//! `|F_t| <= mu F_n`; a slide feels kinetic friction `mu F_n` against its velocity,
+//! linearised at the velocity of the solve before (see [`Constraint::Normal`]), so on a slope
+//! of angle theta it accelerates at `g (sin theta - mu cos theta)` at any step. A slide that
+//! friction stops within the step goes on against a drag that cannot reverse it, so friction
+//! never does positive work. A contact still sliding at the end of a step starts the next one
+//! sliding ([`crate::state::Slide`]), not held.
 //!
 //! A strain limit (`[cloth] strain_limit`) is part of the springs: past `(1 + limit)` times its
 //! rest length a spring is [`LIMIT_STIFFENING`] times stiffer, so the solve (and the friction
@@ -60,7 +63,7 @@ use crate::forces::pressure;
 use crate::math::{Real, RowMut, Soa, Vec3, row};
 use crate::model::Model;
 use crate::params::PressureForce;
-use crate::state::{Motion, State};
+use crate::state::{Motion, Slide, State};
 use glam::DMat3;
 use std::ops::Range;
 
@@ -130,17 +133,24 @@ impl Limit {
 enum Constraint {
     /// Free.
     Free,
-    /// Its velocity along the unit normal `n` is `vn` (m/s): a sliding contact. Kinetic
-    /// friction enters the solve as a tangential drag `drag` (kg: N s per m/s), `mu` times the
-    /// normal impulse over the sliding speed of the solve before (at least
-    /// [`SLIDE_EPSILON`]): friction of magnitude `mu F_n` opposite to the slide's velocity at
-    /// the end of the step, implicit, so it can slow a slide to rest but never reverse it and
-    /// never do positive work. `mu` is the friction coefficient.
+    /// Its velocity along the unit normal `n` is `vn` (m/s): a sliding contact, `mu` its
+    /// friction coefficient. Kinetic friction, `mu F_n` against the slide, linearised at the
+    /// slide's velocity of the solve before (a Newton step on Coulomb's law): the impulse
+    /// `kinetic` (N s: `mu` times the normal impulse) against the slide's unit direction `t`,
+    /// and across it a drag `drag` (kg: N s per m/s, `kinetic` over the sliding speed, at
+    /// least [`SLIDE_EPSILON`]) that turns the friction with the slide. Along `t` the friction
+    /// does not depend on the speed, so one solve finds a slide's speed whatever its
+    /// neighbours do. A slide that a solve ends moving against `t` (friction stopped it within
+    /// the step) becomes a drag-only slide: `t` zero, `kinetic` zero and `drag` over the whole
+    /// tangent plane, friction that can slow a slide to rest but never reverse it and never do
+    /// positive work. A particle landing sliding starts as one too.
     Normal {
         n: Vec3,
         vn: Real,
         mu: Real,
         drag: Real,
+        t: Vec3,
+        kinetic: Real,
     },
     /// A contact held by static friction: its velocity is `n vn`, nothing tangential, as long
     /// as the force that holds it stays inside the friction cone.
@@ -160,11 +170,22 @@ impl Constraint {
         }
     }
 
-    /// The friction drag of a sliding contact on `p`: `drag` times its tangential part.
+    /// The friction drag of a sliding contact on `p`: `drag` times its tangential part across
+    /// the slide (the whole tangential part for a drag-only slide).
     #[inline]
     fn drag(self, p: Vec3) -> Vec3 {
         match self {
-            Constraint::Normal { n, drag, .. } => (p - n * n.dot(p)) * drag,
+            Constraint::Normal { n, drag, t, .. } => (p - n * n.dot(p) - t * t.dot(p)) * drag,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// The kinetic friction impulse of a slide that does not depend on its speed (N s):
+    /// `kinetic` against its direction `t`.
+    #[inline]
+    fn friction(self) -> Vec3 {
+        match self {
+            Constraint::Normal { t, kinetic, .. } => -t * kinetic,
             _ => Vec3::ZERO,
         }
     }
@@ -904,15 +925,18 @@ impl Implicit {
                 vn,
                 mu,
                 drag: self.inertia[k] * held / (vt - held),
+                t: Vec3::ZERO,
+                kinetic: 0.0,
             }
         }
     }
 
     /// What a contact held by static friction at particle `k` (contact normal, normal
     /// velocity, friction coefficient) becomes after the last solve, if it changes: free if its
-    /// normal impulse pulls; sliding if its tangential impulse left the friction cone, against
-    /// a drag for the speed it had at the step's start or, if faster, the speed the impulse
-    /// beyond the cone gives it against its own row's stiffness ([`Implicit::slip_speed`]).
+    /// normal impulse pulls; sliding if its tangential impulse left the friction cone, away
+    /// from that impulse against Coulomb's `mu F_n`, its drag across the slide for the speed it
+    /// had at the step's start or, if faster, the speed the impulse beyond the cone gives it
+    /// against its own row's stiffness ([`Implicit::slip_speed`]).
     /// Inlined: the contact passes test every held particle with it (not inlined, the call
     /// cost an eighth of a settled cloth's step).
     #[inline(always)]
@@ -941,6 +965,8 @@ impl Implicit {
             vn,
             mu,
             drag: mu * push / vt.max(SLIDE_EPSILON),
+            t: (n * push - lambda) / shear,
+            kinetic: mu * push,
         })
     }
 
@@ -948,21 +974,21 @@ impl Implicit {
     /// tangential impulse holding it exceeds the friction cone by `excess` (N s): that impulse
     /// over its row's tangential diagonal (inertia and its springs' `dt^2` stiffness, kg), as
     /// if its neighbours stood still. A lower bound (they give way too), so the slide's first
-    /// drag, `mu F_n` over this speed, is at least the true slide's: its first solve errs
-    /// towards friction, and the next solves loosen it ([`Implicit::slide_drag`]). Starting
-    /// a slide at the speed it had at the step's start alone (at rest: [`SLIDE_EPSILON`])
-    /// made a slide's first solve a thousand times too stiff, and the lagged drag took the
-    /// step's solves to loosen: at coarse steps the slide came out short (measured on the
-    /// vacuum pinch: the hand's force 3.7 % high at 1/120 s, now 0.7 % low).
+    /// drag across it, `mu F_n` over this speed, is at least the true slide's. (While the
+    /// whole of kinetic friction was such a drag, starting a slide at the speed it had at the
+    /// step's start alone, at rest [`SLIDE_EPSILON`], made a slide's first solve a thousand
+    /// times too stiff, and at coarse steps the slide came out short: the vacuum pinch's hand
+    /// force 3.7 % high at 1/120 s.)
     fn slip_speed(&self, k: usize, normal: Vec3, excess: Real) -> Real {
         let a = self.diag_base.get(k);
         let tangential = 0.5 * (a.x + a.y + a.z - (a * normal).dot(normal));
         excess / tangential
     }
 
-    /// The drag (kg) for the next solve of a sliding particle `k` that the last solve moved at
-    /// the tangential speed `vt` (m/s) against the drag `drag`, with `friction` its Coulomb
-    /// friction `mu F_n` (N s). Coulomb's friction over that speed (the drag lagged one solve),
+    /// The drag (kg) for the next solve of a drag-only slide of particle `k` (see
+    /// [`Constraint::Normal`]) that the last solve moved at the tangential speed `vt` (m/s)
+    /// against the drag `drag`, with `friction` its Coulomb friction `mu F_n` (N s).
+    /// Coulomb's friction over that speed (the drag lagged one solve),
     /// unless the slide's friction `drag vt` came out above `friction` (a slide that sped up
     /// within the step): then the drag a Newton step gives on the particle's own row, as if
     /// its neighbours stood still, which takes a faster slide's friction back to Coulomb's in
@@ -985,6 +1011,84 @@ impl Implicit {
         } else {
             lagged
         }
+    }
+
+    /// The constraint for the next solve of particle `k`'s slide (contact normal, normal
+    /// velocity and friction coefficient; drag, direction and kinetic impulse, as in
+    /// [`Constraint::Normal`]) that the last solve moved at the tangential velocity `vt` (m/s)
+    /// with the normal impulse `push` (N s), if it changes, and whether the change calls for
+    /// another solve:
+    /// - moving on along `t`: Coulomb's friction linearised anew at `vt` (its direction, `mu`
+    ///   times `push`, the drag across it), solved again when the friction impulse moved by more
+    ///   than a quarter of its size;
+    /// - moving against `t` (friction stopped it within the step, and would push it back): a
+    ///   drag-only slide at its speed, solved again;
+    /// - a drag-only slide: the drag for its speed ([`Implicit::slide_drag`]) if that moved
+    ///   by more than a quarter, solved again.
+    fn slide_change(
+        &self,
+        k: usize,
+        (n, vn, mu): (Vec3, Real, Real),
+        (drag, t, kinetic): (Real, Vec3, Real),
+        vt: Vec3,
+        push: Real,
+    ) -> Option<(Constraint, bool)> {
+        let speed = vt.length();
+        let friction = mu * push;
+        if t == Vec3::ZERO {
+            let new = self.slide_drag(k, n, friction, speed, drag);
+            return ((new - drag).abs() > 0.25 * drag.max(new)).then_some((
+                Constraint::Normal {
+                    n,
+                    vn,
+                    mu,
+                    drag: new,
+                    t,
+                    kinetic,
+                },
+                true,
+            ));
+        }
+        if vt.dot(t) <= 0.0 {
+            return Some((stopped_slide(n, vn, mu, kinetic, speed), true));
+        }
+        let dir = vt / speed;
+        let moved = (dir * friction - t * kinetic).length() > 0.25 * friction.max(kinetic);
+        let c = Constraint::Normal {
+            n,
+            vn,
+            mu,
+            drag: friction / speed.max(SLIDE_EPSILON),
+            t: dir,
+            kinetic: friction,
+        };
+        Some((c, moved))
+    }
+
+    /// After the step's last solve: every slide that it moved against its direction (whose
+    /// friction would push it on) becomes a drag-only slide. Returns whether any did.
+    fn stop_reversed_slides(&mut self) -> bool {
+        let mut any = false;
+        for k in 0..self.constraints.len() {
+            if let Constraint::Normal {
+                n,
+                vn,
+                mu,
+                t,
+                kinetic,
+                ..
+            } = self.constraints[k]
+            {
+                let v = self.v.get(k);
+                let vt = v - n * n.dot(v);
+                if t != Vec3::ZERO && vt.dot(t) <= 0.0 {
+                    self.constraints[k] = stopped_slide(n, vn, mu, kinetic, vt.length());
+                    self.precondition_one(k);
+                    any = true;
+                }
+            }
+        }
+        any
     }
 
     /// After solves that kept the contact set (the bubble's pressure passes): contacts that
@@ -1017,7 +1121,7 @@ impl Implicit {
     fn precondition_one(&mut self, k: usize) {
         let d = self.diag_base.get(k);
         let d = match self.constraints[k] {
-            Constraint::Normal { n, drag, .. } => d + (Vec3::ONE - n * n) * drag,
+            Constraint::Normal { n, drag, t, .. } => d + (Vec3::ONE - n * n - t * t) * drag,
             _ => d,
         };
         self.inv_diag.set(k, Vec3::ONE / d);
@@ -1099,8 +1203,8 @@ impl Implicit {
             let (i, j) = (a % nx, a / nx);
             let sa = proj(c);
             let mut centre = blocks[a][CENTRE] + DMat3::from_diagonal(Vec3::splat(self.inertia[a]));
-            if let Constraint::Normal { n, drag, .. } = c {
-                centre += (DMat3::IDENTITY - outer(n)) * drag;
+            if let Constraint::Normal { n, drag, t, .. } = c {
+                centre += (DMat3::IDENTITY - outer(n) - outer(t)) * drag;
             }
             let free = c == Constraint::Free;
             blocks[a][CENTRE] = if free {
@@ -1210,9 +1314,9 @@ impl Implicit {
         for &k in &active {
             let k = k as usize;
             let c = self.constraints[k];
-            let b = c.filter(self.rhs.get(k));
+            let b = c.filter(self.rhs.get(k)) + c.friction();
             bb += b.length_squared();
-            let r = c.filter(self.rhs.get(k) - self.q.get(k));
+            let r = c.filter(self.rhs.get(k) - self.q.get(k)) + c.friction();
             self.r.set(k, r);
             rr += r.length_squared();
         }
@@ -1404,7 +1508,11 @@ impl Implicit {
             self.r.set(k, v);
         }
         // Constraints: the hands, then contacts where a particle touches or would reach a
-        // collider during the step at its current speed.
+        // collider during the step at its current speed. A contact that ended the last step
+        // sliding and still moves starts sliding against the friction it had; any other starts
+        // held (the friction cone decides after the first solve). Starting every contact held,
+        // a cloth sliding over the table was gripped anew at each step's start: the thesis
+        // demo lifted at 1/60 s pulled the hand with 0.26 N against the explicit 0.14 N.
         self.constraints.fill(Constraint::Free);
         for (k, target) in control.active() {
             self.constraints[k] = Constraint::Fixed((target - state.x.get(k)) / dt);
@@ -1414,7 +1522,33 @@ impl Implicit {
                 continue;
             }
             let (x, v) = (state.x.get(k), self.r.get(k));
-            self.constraints[k] = contact_constraint(model, k, x, v, dt, state.contact[k]);
+            let c = contact_constraint(model, k, x, v, dt, state.contact[k]);
+            let Constraint::Stick { n, vn, mu } = c else {
+                self.constraints[k] = c;
+                continue;
+            };
+            let vt = v - n * n.dot(v);
+            let speed = vt.length();
+            self.constraints[k] = match state.slides[k] {
+                _ if speed <= SLIDE_EPSILON => c,
+                Slide::None => c,
+                Slide::Kinetic(f) => Constraint::Normal {
+                    n,
+                    vn,
+                    mu,
+                    drag: f * dt / speed,
+                    t: vt / speed,
+                    kinetic: f * dt,
+                },
+                Slide::Drag(rate) => Constraint::Normal {
+                    n,
+                    vn,
+                    mu,
+                    drag: rate * dt,
+                    t: Vec3::ZERO,
+                    kinetic: 0.0,
+                },
+            };
         }
         // `System` borrows the regions; the rest of `self` is used mutably below.
         let regions = std::mem::take(&mut self.regions);
@@ -1475,8 +1609,11 @@ impl Implicit {
                         vn,
                         mu,
                         drag,
+                        t,
+                        kinetic,
                     } => {
-                        // The normal impulse: the residual without the drag's share.
+                        // The normal impulse: the residual's normal part (friction is
+                        // tangential).
                         let v = self.v.get(k);
                         let lambda = self.q.get(k) - self.rhs.get(k);
                         let push = lambda.dot(normal);
@@ -1484,20 +1621,16 @@ impl Implicit {
                             self.constraints[k] = Constraint::Free;
                             self.precondition_one(k);
                             changed = true;
-                        } else {
-                            // The drag for the speed this solve found.
-                            let vt = (v - normal * normal.dot(v)).length();
-                            let new = self.slide_drag(k, normal, mu * push, vt, drag);
-                            if (new - drag).abs() > 0.25 * drag.max(new) {
-                                self.constraints[k] = Constraint::Normal {
-                                    n: normal,
-                                    vn,
-                                    mu,
-                                    drag: new,
-                                };
-                                self.precondition_one(k);
-                                changed = true;
-                            }
+                        } else if let Some(c) = self.slide_change(
+                            k,
+                            (normal, vn, mu),
+                            (drag, t, kinetic),
+                            v - normal * normal.dot(v),
+                            push,
+                        ) {
+                            self.constraints[k] = c.0;
+                            self.precondition_one(k);
+                            changed |= c.1;
                         }
                     }
                     Constraint::Free => {
@@ -1576,6 +1709,14 @@ impl Implicit {
         if shifted && self.recheck_contacts(state, dt) {
             self.solve_and_apply(&sys, CG_TOLERANCE);
         }
+        // A slide the last solve moved against its direction would have its friction push it
+        // on: it becomes a drag-only slide and the step is solved again.
+        for _ in 0..CONTACT_PASSES {
+            if !self.stop_reversed_slides() {
+                break;
+            }
+            self.solve_and_apply(&sys, CG_TOLERANCE);
+        }
         self.total_iterations += self.iterations as u64;
         // The constraint forces of the final solution (in `q`): the hands' and the contacts'.
         self.regions = regions;
@@ -1639,6 +1780,13 @@ impl Implicit {
                 volume_change += self.per_pascal.get(k).dot(to - x);
             }
             state.contact[k] = touched;
+            state.slides[k] = match self.constraints[k] {
+                Constraint::Normal { t, kinetic, .. } if touched && t != Vec3::ZERO => {
+                    Slide::Kinetic(kinetic / dt)
+                }
+                Constraint::Normal { drag, .. } if touched => Slide::Drag(drag / dt),
+                _ => Slide::None,
+            };
             prev.set(k, to);
         }
         std::mem::swap(prev, &mut state.x);
@@ -1731,6 +1879,20 @@ const MAX_GAS_CORRECTIONS: usize = 8;
 enum Which {
     P,
     V,
+}
+
+/// A slide (contact normal, normal velocity, friction coefficient) that friction stopped
+/// within the step, its kinetic impulse `kinetic` (N s), at the tangential speed `speed` (m/s):
+/// a drag-only slide (see [`Constraint::Normal`]), its drag giving that impulse at that speed.
+fn stopped_slide(n: Vec3, vn: Real, mu: Real, kinetic: Real, speed: Real) -> Constraint {
+    Constraint::Normal {
+        n,
+        vn,
+        mu,
+        drag: kinetic / speed.max(SLIDE_EPSILON),
+        t: Vec3::ZERO,
+        kinetic: 0.0,
+    }
 }
 
 /// The contact constraint of particle `k` at `x` moving at `v` (m/s) over a step of `dt` s:
