@@ -722,6 +722,13 @@ fn print_summary(scene: &Scene, sim: &Simulation, dir: &Path, frames: u64, wall:
         sps * particles,
         rayon::current_num_threads()
     );
+    if sim.halvings() > 0 {
+        println!(
+            "  halved     {} step(s) taken again as two of half the time step (strain limit \
+             broken by more than a quarter, or a blow-up)",
+            sim.halvings()
+        );
+    }
     println!("  final metrics:");
     for ((name, value), unit) in COLUMNS.iter().zip(sim.metrics().values()).zip(UNITS) {
         let line = format!("    {name:<17} {} {unit}", human(value));
