@@ -180,9 +180,10 @@ impl Simulation {
     }
 
     /// Steps the implicit integrator took again as two of half the time step since this
-    /// simulation was built (counting each halving, nested ones too): where a step of the
-    /// configured size would break the strain limit by more than [`HALVING_STRETCH`] times the
-    /// limit, or blow up. Zero for the explicit integrator.
+    /// simulation was built (counting each halving, nested ones too): where, with a strain
+    /// limit, a step of the configured size would break it by more than [`HALVING_STRETCH`]
+    /// times the limit, or blow up. Zero for the explicit integrator and without a strain
+    /// limit.
     pub fn halvings(&self) -> u64 {
         self.halvings
     }
@@ -435,13 +436,17 @@ impl Simulation {
     /// 6. **Measure and check** (3.5): the new bubble volume (eq. 3.10) and the blow-up checks
     ///    ([`crate::checks`]); measured in phase 3 unless phase 5 moved particles.
     ///
-    /// With the implicit integrator a step whose end breaks the strain limit by more than a
-    /// quarter of it, or fails a blow-up check, is taken again as two steps of half the time
-    /// step (and so on, at most [`MAX_HALVINGS`] times): see [`Simulation::halvings`].
+    /// With the implicit integrator and a strain limit, a step whose end breaks the limit by
+    /// more than a quarter of it, or fails a blow-up check, is taken again as two steps of half
+    /// the time step (and so on, at most [`MAX_HALVINGS`] times): see
+    /// [`Simulation::halvings`]. (Without a strain limit no step is halved: the snapshot each
+    /// step keeps for it costs a sixth of a settled cloth's implicit step.)
     pub fn step(&mut self) -> Result<(), StepError> {
         let dt = self.config.simulation.time_step;
         let t_next = (self.state.steps + 1) as Real * dt;
-        if self.config.simulation.integrator == crate::params::Integrator::Implicit {
+        if self.config.simulation.integrator == crate::params::Integrator::Implicit
+            && self.config.cloth.strain_limit > 0.0
+        {
             self.adaptive_span(t_next, dt, 0)?;
         } else {
             self.span(t_next, dt)?;
@@ -461,8 +466,7 @@ impl Simulation {
         let saved = self.checkpoint();
         let result = self.span(t_next, dt);
         let limit = self.config.cloth.strain_limit;
-        let broken = limit > 0.0
-            && self.measures.totals().stretch2.sqrt() > 1.0 + (1.0 + HALVING_STRETCH) * limit;
+        let broken = self.measures.totals().stretch2.sqrt() > 1.0 + (1.0 + HALVING_STRETCH) * limit;
         if result.is_ok() && !broken {
             return result;
         }
