@@ -470,16 +470,7 @@ impl Simulation {
         if result.is_ok() && !broken {
             return result;
         }
-        let Checkpoint {
-            state,
-            control,
-            air,
-            self_collision,
-            measures,
-            ..
-        } = saved;
-        (self.state, self.control, self.air) = (state, control, air);
-        (self.self_collision, self.measures) = (self_collision, measures);
+        self.put_back(saved);
         self.halvings += 1;
         let half = 0.5 * dt;
         self.state.use_velocities(dt);
@@ -696,6 +687,12 @@ impl Simulation {
     pub fn restore(config: SimConfig, checkpoint: Checkpoint) -> Result<Self, RestoreError> {
         let mut sim = Self::new(config)?;
         checkpoint.check_fits(&sim)?;
+        sim.put_back(checkpoint);
+        Ok(sim)
+    }
+
+    /// Puts the parts of `checkpoint` (one that fits) in place of the simulation's own.
+    fn put_back(&mut self, checkpoint: Checkpoint) {
         let Checkpoint {
             version: _,
             state,
@@ -705,9 +702,8 @@ impl Simulation {
             measures,
             audit,
         } = checkpoint;
-        (sim.state, sim.control, sim.air) = (state, control, air);
-        (sim.self_collision, sim.measures, sim.audit) = (self_collision, measures, audit);
-        Ok(sim)
+        (self.state, self.control, self.air) = (state, control, air);
+        (self.self_collision, self.measures, self.audit) = (self_collision, measures, audit);
     }
 
     /// Takes `steps` steps (see [`Simulation::step`]), on the thread pool when the cloth is big
