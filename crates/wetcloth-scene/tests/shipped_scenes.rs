@@ -243,8 +243,6 @@ fn implicit_at_1_600_s(name: &str) -> Simulation {
     implicit_run(name, 600.0, None)
 }
 
-/// The shipped scene `name` run with the implicit integrator at `1 / rate` s for `seconds`
-/// (its whole duration with `None`).
 /// Symptom: `scenes/ball-pull.toml` (a wet cloth over a ball pulled down out of it) with the
 /// implicit integrator at 1/600 s took 179 conjugate-gradient iterations a step, and solves of
 /// 4000 (the cap), where it had taken 29. Cause: a slide that a solve had stopped (its speed
@@ -260,6 +258,8 @@ fn ball_pull_solves_implicitly_in_few_iterations() {
     assert!(per_step < 60.0, "{per_step} iterations a step");
 }
 
+/// The shipped scene `name` run with the implicit integrator at `1 / rate` s for `seconds`
+/// (its whole duration with `None`).
 fn implicit_run(name: &str, rate: Real, seconds: Option<Real>) -> Simulation {
     let mut cfg = scene(name).config;
     cfg.simulation.integrator = wetcloth::Integrator::Implicit;

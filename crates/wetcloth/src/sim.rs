@@ -18,6 +18,7 @@ use crate::params::SimConfig;
 use crate::state::State;
 
 pub use crate::checks::BLOWUP_STRETCH;
+pub use crate::exec::{PARALLEL_MIN_PARTICLES, PARALLEL_MIN_PARTICLES_IN_POOL};
 
 /// Most times the implicit integrator halves one step ([`Simulation::step`]): down to a
 /// sixteenth of the time step.
@@ -27,7 +28,6 @@ pub const MAX_HALVINGS: u32 = 4;
 /// may end before it is taken again as two of half the time step: 0.25 (a 10 % limit holds
 /// to 12.5 %).
 pub const HALVING_STRETCH: Real = 0.25;
-pub use crate::exec::{PARALLEL_MIN_PARTICLES, PARALLEL_MIN_PARTICLES_IN_POOL};
 
 /// A wet cloth on its colliders, with trapped air and grabs.
 ///
