@@ -236,10 +236,14 @@ impl Simulation {
         }
     }
 
-    /// Length of the cloth's border lifted off every collider during the last step, m (see
+    /// Length of the cloth's border lifted off every collider now, m (see
     /// [`crate::air::leak::open_border_length`]).
     pub fn open_border_length(&self) -> Real {
-        crate::air::leak::open_border_length(&self.model, &self.state.contact)
+        crate::air::leak::open_border_length(
+            &self.model,
+            &self.state.x,
+            self.model.radius + self.config.air.seal_distance,
+        )
     }
 
     /// Whether the pressure force acts.
@@ -523,7 +527,7 @@ impl Simulation {
         self.air.leak(
             &self.config.air,
             &self.model,
-            &self.state.contact,
+            &self.state.x,
             self.control.air_enabled,
             dt,
         );

@@ -404,6 +404,40 @@ fn leaking_air_refills_the_bubble_exponentially() {
     assert_eq!(AirParams::default().leak_conductance, 0.0);
 }
 
+/// The border the leak counts as open is measured against the surface: a flat cloth whose
+/// particles lie within `[air] seal_distance` (0.5 mm) beyond their radius is sealed all round,
+/// one higher is open all round, whatever the step's contact flags say (a cloth just placed has
+/// touched nothing yet).
+#[test]
+fn the_leak_opens_where_the_border_is_lifted_beyond_the_seal_distance() {
+    let at = |gap: Real| {
+        let mut cfg = bare(10);
+        cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, 0.5)];
+        cfg.cloth.position.y = cfg.cloth.particle_radius() + gap;
+        cfg.air = AirParams {
+            enabled: true,
+            leak_conductance: 1e-4,
+            ..Default::default()
+        };
+        Simulation::new(cfg).unwrap().open_border_length()
+    };
+    let perimeter = 0.4;
+    assert_eq!(at(0.0), 0.0);
+    assert_eq!(at(0.0004), 0.0);
+    assert!((at(0.0006) - perimeter).abs() < 1e-12, "{}", at(0.0006));
+    // One corner raised: its two border edges count half each.
+    let mut cfg = bare(10);
+    cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, 0.5)];
+    cfg.cloth.position.y = cfg.cloth.particle_radius();
+    cfg.grabs = vec![wetcloth::GrabSpec::lift([0, 0], 0.0, 0.01, 0.01)];
+    let mut sim = Simulation::new(cfg).unwrap();
+    run(&mut sim, 0.01);
+    let spacing = 0.1 / 9.0;
+    let open = sim.open_border_length();
+    assert!(open >= spacing - 1e-12, "{open}");
+    assert!(open < perimeter / 2.0, "{open}");
+}
+
 /// A 12 cm cloth of the thesis' spacing and areal mass (21 x 21), lying stuck on the table with
 /// no air under it, air force on, no self-collision.
 fn stuck_small_cloth() -> SimConfig {

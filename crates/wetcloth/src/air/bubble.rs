@@ -6,7 +6,7 @@ use super::boyle::boyle_pressure;
 use super::leak;
 use crate::air::{AirLoad, Timing};
 use crate::control::Control;
-use crate::math::Real;
+use crate::math::{Real, Soa};
 use crate::model::Model;
 use crate::params::{AirParams, PressureSolve};
 use crate::state::State;
@@ -120,20 +120,20 @@ impl Bubble {
         }
     }
 
-    /// Phase 4: air leaking in (or out) where the border is lifted off the surface during the
-    /// step (`contact` flags of the step), at the pressure of the step's start (explicit Euler
-    /// on the amount of air).
+    /// Phase 4: air leaking in (or out) where the border is lifted off the surface at the
+    /// step's end (positions `x`, [`leak::open_border_length`]), at the pressure of the step's
+    /// start (explicit Euler on the amount of air).
     pub(crate) fn leak(
         &mut self,
         air: &AirParams,
         model: &Model,
-        contact: &[bool],
+        x: &Soa,
         enabled: bool,
         dt: Real,
     ) {
         let pa = air.atmospheric_pressure;
         if enabled && air.leak_conductance > 0.0 && pa > 0.0 {
-            let open = leak::open_border_length(model, contact);
+            let open = leak::open_border_length(model, x, model.radius + air.seal_distance);
             let flow = leak::border_flow(air.leak_conductance, open, pa, self.start_pressure);
             self.trapped_air = (self.trapped_air + flow * dt).max(0.0);
         }

@@ -242,18 +242,18 @@ impl AirModel {
         }
     }
 
-    /// Phase 4: air through the border during the step (`contact` flags of the step; the
-    /// thesis' bubble).
+    /// Phase 4: air through the border lifted at the step's end (positions `x`; the thesis'
+    /// bubble).
     pub(crate) fn leak(
         &mut self,
         air: &AirParams,
         model: &Model,
-        contact: &[bool],
+        x: &Soa,
         enabled: bool,
         dt: Real,
     ) {
         if let AirModel::Thesis(b) = self {
-            b.leak(air, model, contact, enabled, dt)
+            b.leak(air, model, x, enabled, dt)
         }
     }
 

@@ -16,7 +16,8 @@ pub struct AirParams {
     /// Leak conductance of the cloth's border, m^2/s: where the border is lifted off the
     /// surface, air flows into an under-pressured bubble (or out of an over-pressured one) at
     /// `leak_conductance * L_open * (P_a - P_b) / P_a` cubic metres per second (measured at
-    /// atmospheric pressure), `L_open` the length of border lifted off the surface. The
+    /// atmospheric pressure), `L_open` the length of border lifted more than `seal_distance`
+    /// beyond its radius off every surface. The
     /// thesis' future work ("the amount of air should change while the cloth deforms").
     /// Default 0 (sealed, as in the thesis); range [0, 10].
     pub leak_conductance: Real,
@@ -27,8 +28,10 @@ pub struct AirParams {
     pub pressure_force: PressureForce,
     /// The air model. Default [`AirModelKind::Thesis`].
     pub model: AirModelKind,
-    /// With the pockets model: how far beyond its collision radius a particle still seals
-    /// against a surface, m. Default 0.0005; range [0, 0.1].
+    /// How far beyond its collision radius a particle still seals against a surface, m: with
+    /// the pockets model, where a pocket's rim runs; with the thesis' bubble and a
+    /// `leak_conductance`, a border particle lifted further lets air through. Default 0.0005;
+    /// range [0, 0.1].
     pub seal_distance: Real,
     /// With the pockets model: wetting hysteresis of the seal, a fraction of `seal_distance`. A
     /// sealed particle stays sealed out to `seal_distance` beyond its radius; an open one seals
