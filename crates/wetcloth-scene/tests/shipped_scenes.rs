@@ -86,6 +86,39 @@ fn peel_leak_lets_in_the_same_air_at_two_explicit_steps() {
     );
 }
 
+/// `peel-leak`'s explicit reference reads a hand force 10 to 15 % below the implicit
+/// integrator's from the moment air first gets in (0.28 s). The scene's explicit runs predict
+/// the bubble's pressure from the coasting positions (`pressure_solve = "implicit"`), and while
+/// air rushes in that prediction lets the corner's bubble grow twice as fast as the cloth's
+/// motion does: at 0.30 s the hand holds 0.014 N against the implicit integrator's 0.914 N with
+/// the bubble at 29 kPa. With the thesis' own pressure (Boyle's at the step's start, explicit)
+/// the explicit integrator at 1/40000 s agrees with the implicit one at 1/600 s to 2.5 % on
+/// every frame up to 0.75 s (measured: 0.2 % at 0.3 and 0.4 s, 2.2 % at 0.5 s, 2.4 % at 0.6 s,
+/// 0.1 % at 0.75 s), and then goes unstable around the tiny bubble (147 kPa at 0.9 s), which is
+/// why the scene predicts instead. Here: the frames to 0.75 s agree within 5 %.
+#[test]
+fn peel_leak_implicit_agrees_with_the_thesis_pressure_where_that_runs() {
+    let forces = |cfg: wetcloth::SimConfig| {
+        let dt = cfg.simulation.time_step;
+        let mut sim = Simulation::new(cfg).unwrap();
+        [0.3, 0.4, 0.5, 0.6, 0.75].map(|t: Real| {
+            let steps = (t / dt).round() as u64 - sim.step_count();
+            sim.advance(steps).unwrap();
+            sim.metrics().grab_force
+        })
+    };
+    let mut thesis = scene("peel-leak.toml").config;
+    thesis.simulation.time_step = 1.0 / 40000.0;
+    thesis.air.pressure_solve = wetcloth::PressureSolve::Explicit;
+    let mut implicit = scene("peel-leak.toml").config;
+    implicit.simulation.integrator = wetcloth::Integrator::Implicit;
+    implicit.simulation.time_step = 1.0 / 600.0;
+    let (a, b) = (forces(thesis), forces(implicit));
+    for (fa, fb) in a.iter().zip(&b) {
+        assert!((fb / fa - 1.0).abs() < 0.05, "explicit {a:?} N, implicit {b:?} N");
+    }
+}
+
 #[test]
 fn peel_leak_runs_at_its_own_step() {
     peel_leak_at(8.333e-5);
