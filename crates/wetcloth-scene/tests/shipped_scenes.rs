@@ -115,7 +115,10 @@ fn peel_leak_implicit_agrees_with_the_thesis_pressure_where_that_runs() {
     implicit.simulation.time_step = 1.0 / 600.0;
     let (a, b) = (forces(thesis), forces(implicit));
     for (fa, fb) in a.iter().zip(&b) {
-        assert!((fb / fa - 1.0).abs() < 0.05, "explicit {a:?} N, implicit {b:?} N");
+        assert!(
+            (fb / fa - 1.0).abs() < 0.05,
+            "explicit {a:?} N, implicit {b:?} N"
+        );
     }
 }
 

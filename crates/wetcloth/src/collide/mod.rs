@@ -227,6 +227,10 @@ impl Collider {
     /// at the closest surface point.
     #[inline]
     pub fn distance(&self, p: Vec3) -> (Real, Vec3) {
+        // A still plane, the common table, inline (the shapes' match is not).
+        if let (None, Shape::Plane(plane)) = (&self.placement, &self.shape) {
+            return plane.distance(p);
+        }
         match &self.placement {
             None => self.rest_distance(p),
             Some(at) => {
