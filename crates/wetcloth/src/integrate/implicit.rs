@@ -629,6 +629,11 @@ pub(crate) struct Implicit {
     lin_x: Soa,
     lin_fresh: bool,
     lin_moved: Vec<bool>,
+    /// Each particle's sum of its springs' diagonal blocks (N/m), and whether the next
+    /// [`Implicit::precondition`] may take it again only around the particles that moved (the
+    /// last `forces` kept the other springs).
+    diag_springs: Soa,
+    diag_kept: bool,
     /// Conjugate-gradient iterations of the last step (all solves), and of every step since
     /// this scratch was made.
     pub iterations: usize,
@@ -692,6 +697,8 @@ impl Implicit {
             lin_x: Soa::zeros(n),
             lin_fresh: false,
             lin_moved: vec![true; n],
+            diag_springs: Soa::zeros(n),
+            diag_kept: false,
             iterations: 0,
             total_iterations: 0,
         }
@@ -719,6 +726,7 @@ impl Implicit {
                 &self.av,
                 &self.av_of,
                 &self.lin_x,
+                &self.diag_springs,
             ]
             .iter()
             .map(|s| s.heap_bytes())
@@ -788,6 +796,7 @@ impl Implicit {
         ] {
             to.clone_from(from);
         }
+        self.diag_kept = fresh;
         self.lin_fresh = true;
         // The pressure force of 1 Pa on every particle: S N_i (or by area).
         if self.regions.list.is_empty() && self.regions.extra.is_empty() {
@@ -1003,27 +1012,119 @@ impl Implicit {
         // The matrix changed (a new step's, or springs past the strain limit): `av` is stale.
         self.av_fresh = false;
         let (nx, nz) = (sys.nx, sys.nz);
-        let mut h = std::mem::take(&mut self.diag_base);
-        for v in [&mut h.x, &mut h.y, &mut h.z] {
-            v.fill(0.0);
+        let n = nx * nz;
+        let mut h = std::mem::take(&mut self.diag_springs);
+        if std::mem::take(&mut self.diag_kept) {
+            // Only the springs around moved particles changed: their particles' sums again.
+            self.av_stamp = self.av_stamp.wrapping_add(1);
+            if self.av_stamp == 0 {
+                self.av_mark.fill(0);
+                self.av_stamp = 1;
+            }
+            let stamp = self.av_stamp;
+            for k in 0..n {
+                if !self.lin_moved[k] {
+                    continue;
+                }
+                let (i, j) = (k % nx, k / nx);
+                for jj in j.saturating_sub(1)..(j + 2).min(nz) {
+                    for ii in i.saturating_sub(1)..(i + 2).min(nx) {
+                        let m = jj * nx + ii;
+                        if self.av_mark[m] != stamp {
+                            self.av_mark[m] = stamp;
+                            h.set(m, self.diag_exact(sys, m));
+                        }
+                    }
+                }
+            }
+            #[cfg(test)]
+            self.check_diagonal(sys, &h);
+        } else {
+            for v in [&mut h.x, &mut h.y, &mut h.z] {
+                v.fill(0.0);
+            }
+            for (dir, run, oa, ob) in self.runs.clone().iter().cloned() {
+                self.springs
+                    .get_mut(dir)
+                    .diagonal_range(&mut h, run, oa, ob);
+            }
         }
-        for (dir, run, oa, ob) in self.runs.clone().iter().cloned() {
-            self.springs
-                .get_mut(dir)
-                .diagonal_range(&mut h, run, oa, ob);
-        }
-        for a in 0..nx * nz {
+        let mut base = std::mem::take(&mut self.diag_base);
+        for a in 0..n {
             let mut d = Vec3::splat(self.inertia[a]) + h.get(a) * sys.dt2;
             if let Some(r) = sys.regions.of(a) {
                 let g = self.per_pascal.get(a);
                 d += g * g * self.gas[r];
             }
-            h.set(a, d);
+            base.set(a, d);
         }
-        self.diag_base = h;
-        for a in 0..nx * nz {
+        self.diag_base = base;
+        self.diag_springs = h;
+        for a in 0..n {
             self.precondition_one(a);
         }
+    }
+
+    /// Particle `a`'s sum of its springs' diagonal blocks, added in the order the whole pass
+    /// ([`SpringSet::diagonal_range`] over the runs) adds them, so that it has the same bits (as
+    /// [`Implicit::row_exact`] for the product).
+    #[inline]
+    fn diag_exact(&self, sys: &System<'_>, a: usize) -> Vec3 {
+        let (nx, nz) = (sys.nx, sys.nz);
+        let (i, j) = (a % nx, a / nx);
+        let st = &self.springs;
+        let g = |set: &SpringSet, e: usize| {
+            let d = set.d.get(e);
+            Vec3::splat(set.ks[e]) + d * d * set.kd[e]
+        };
+        let mut h = Vec3::ZERO;
+        if j > 0 && i > 0 {
+            h += g(&st.diag, a - nx - 1);
+        }
+        if j > 0 && i + 1 < nx {
+            h += g(&st.anti, a - nx);
+        }
+        if i + 1 < nx {
+            h += g(&st.right, a);
+        }
+        if i > 0 {
+            h += g(&st.right, a - 1);
+        }
+        if j + 1 < nz && i + 1 < nx {
+            h += g(&st.diag, a);
+        }
+        if j + 1 < nz && i > 0 {
+            h += g(&st.anti, a - 1);
+        }
+        if j + 1 < nz {
+            h += g(&st.down, a);
+        }
+        if j > 0 {
+            h += g(&st.down, a - nx);
+        }
+        h
+    }
+
+    /// In the unit tests: the diagonal's spring sums `h` taken around the moved particles have
+    /// the bits of the whole pass.
+    #[cfg(test)]
+    fn check_diagonal(&mut self, sys: &System<'_>, h: &Soa) {
+        let n = sys.nx * sys.nz;
+        let mut whole = Soa::zeros(n);
+        for (dir, run, oa, ob) in self.runs.clone().iter().cloned() {
+            self.springs
+                .get_mut(dir)
+                .diagonal_range(&mut whole, run, oa, ob);
+        }
+        for k in 0..n {
+            assert!(
+                same_bits(whole.get(k), h.get(k)),
+                "diagonal {k}: kept {} whole {}",
+                h.get(k),
+                whole.get(k)
+            );
+        }
+        KEPT_CHECKS.with(|c| c.set(c.get() + 1));
     }
 
     /// The contact of a particle that the last solve found landing on a collider (`stick`, its
@@ -2273,7 +2374,8 @@ mod tests {
     /// The products `A v` taken only around the particles a solve moved have the bits of the
     /// whole product (`check_partial_product` compares every one), and the springs whose
     /// particles did not move keep the bits a new linearisation gives (`check_same`, on every
-    /// run of every step after the first): a stiff cloth pressed flat
+    /// run of every step after the first), and so does the diagonal summed again only around
+    /// the moved particles (`check_diagonal`): a stiff cloth pressed flat
     /// by the vacuum and pinched up at its centre, at 1/600 s, strain-limited (springs going
     /// onto their stiff branch change the matrix, and at 2 % they do: the next step must
     /// linearise them anew), over a table and over a ball (curved contact normals), with and
