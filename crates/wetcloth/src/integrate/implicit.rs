@@ -1016,27 +1016,14 @@ impl Implicit {
         let mut h = std::mem::take(&mut self.diag_springs);
         if std::mem::take(&mut self.diag_kept) {
             // Only the springs around moved particles changed: their particles' sums again.
-            self.av_stamp = self.av_stamp.wrapping_add(1);
-            if self.av_stamp == 0 {
-                self.av_mark.fill(0);
-                self.av_stamp = 1;
+            let stamp = self.next_stamp();
+            let mut mark = std::mem::take(&mut self.av_mark);
+            for k in (0..n).filter(|&k| self.lin_moved[k]) {
+                each_new_neighbour(nx, nz, k, &mut mark, stamp, |m| {
+                    h.set(m, self.diag_exact(sys, m));
+                });
             }
-            let stamp = self.av_stamp;
-            for k in 0..n {
-                if !self.lin_moved[k] {
-                    continue;
-                }
-                let (i, j) = (k % nx, k / nx);
-                for jj in j.saturating_sub(1)..(j + 2).min(nz) {
-                    for ii in i.saturating_sub(1)..(i + 2).min(nx) {
-                        let m = jj * nx + ii;
-                        if self.av_mark[m] != stamp {
-                            self.av_mark[m] = stamp;
-                            h.set(m, self.diag_exact(sys, m));
-                        }
-                    }
-                }
-            }
+            self.av_mark = mark;
             #[cfg(test)]
             self.check_diagonal(sys, &h);
         } else {
@@ -1517,6 +1504,17 @@ impl Implicit {
         self.apply_v(sys);
     }
 
+    /// A stamp no row of `av_mark` holds yet (the marks of earlier passes then read as
+    /// unmarked).
+    fn next_stamp(&mut self) -> u32 {
+        self.av_stamp = self.av_stamp.wrapping_add(1);
+        if self.av_stamp == 0 {
+            self.av_mark.fill(0);
+            self.av_stamp = 1;
+        }
+        self.av_stamp
+    }
+
     /// `av = A v`. Without gas springs (whose rank-one terms couple every particle of a
     /// region) and while the matrix is unchanged since the last product but for the rows whose
     /// constraints changed, only the rows around the particles whose velocity moved are taken
@@ -1529,12 +1527,7 @@ impl Implicit {
         let n = nx * nz;
         if self.av_fresh && self.gas.iter().all(|&g| g == 0.0) {
             let mut moved = 0;
-            self.av_stamp = self.av_stamp.wrapping_add(1);
-            if self.av_stamp == 0 {
-                self.av_mark.fill(0);
-                self.av_stamp = 1;
-            }
-            let stamp = self.av_stamp;
+            let stamp = self.next_stamp();
             let mut rows = std::mem::take(&mut self.av_rows);
             for &k in &rows {
                 self.av_mark[k as usize] = stamp;
@@ -1547,16 +1540,7 @@ impl Implicit {
                 if 8 * moved > n {
                     break;
                 }
-                let (i, j) = (k % nx, k / nx);
-                for jj in j.saturating_sub(1)..(j + 2).min(nz) {
-                    for ii in i.saturating_sub(1)..(i + 2).min(nx) {
-                        let m = jj * nx + ii;
-                        if self.av_mark[m] != stamp {
-                            self.av_mark[m] = stamp;
-                            rows.push(m as u32);
-                        }
-                    }
-                }
+                each_new_neighbour(nx, nz, k, &mut self.av_mark, stamp, |m| rows.push(m as u32));
                 self.av_of.set(k, self.v.get(k));
             }
             if 8 * moved <= n {
@@ -2233,6 +2217,29 @@ thread_local! {
     static PARTIAL_PRODUCTS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
     /// Runs of springs whose kept linearisation was checked against a new one on this thread.
     static KEPT_CHECKS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// Calls `f` on every particle of the 3 x 3 block around particle `k` of an `nx` x `nz` grid
+/// (the rows a change at `k` reaches through the 9-point stencil) that `mark` does not yet hold
+/// at `stamp`, and marks it.
+fn each_new_neighbour(
+    nx: usize,
+    nz: usize,
+    k: usize,
+    mark: &mut [u32],
+    stamp: u32,
+    mut f: impl FnMut(usize),
+) {
+    let (i, j) = (k % nx, k / nx);
+    for jj in j.saturating_sub(1)..(j + 2).min(nz) {
+        for ii in i.saturating_sub(1)..(i + 2).min(nx) {
+            let m = jj * nx + ii;
+            if mark[m] != stamp {
+                mark[m] = stamp;
+                f(m);
+            }
+        }
+    }
 }
 
 /// Whether `a` and `b` are the same bits (a zero's sign included).
