@@ -616,13 +616,14 @@ pub(crate) struct Implicit {
     /// contact's and hand's impulse is read from it. `av_of` is the `v` it was computed from
     /// while `av_fresh` holds (the matrix unchanged since but for the rows in `av_rows`, whose
     /// constraints changed); then only the rows around the particles whose velocity moved are
-    /// computed again ([`Implicit::apply_v`]). `av_mark` and `av_stamp` mark the rows taken.
+    /// computed again ([`Implicit::apply_v`]). `row_mark` and `row_stamp` mark the rows taken
+    /// there and in [`Implicit::precondition`] ([`Implicit::next_stamp`]).
     av: Soa,
     av_of: Soa,
     av_fresh: bool,
     av_rows: Vec<u32>,
-    av_mark: Vec<u32>,
-    av_stamp: u32,
+    row_mark: Vec<u32>,
+    row_stamp: u32,
     /// The positions the springs were last linearised at, while `lin_fresh` holds (no spring
     /// was put on its stiff branch since): a spring neither of whose particles moved keeps its
     /// linearisation ([`Implicit::forces`]). `lin_moved` marks the particles that moved.
@@ -692,8 +693,8 @@ impl Implicit {
             av_of: Soa::zeros(n),
             av_fresh: false,
             av_rows: Vec::new(),
-            av_mark: vec![0; n],
-            av_stamp: 0,
+            row_mark: vec![0; n],
+            row_stamp: 0,
             lin_x: Soa::zeros(n),
             lin_fresh: false,
             lin_moved: vec![true; n],
@@ -739,7 +740,7 @@ impl Implicit {
             + self.landed.capacity()
             + (self.rim_applied.capacity() + self.rim_target.capacity()) * 8
             + self.end_pressure.capacity() * 8
-            + (self.av_rows.capacity() + self.av_mark.capacity()) * 4
+            + (self.av_rows.capacity() + self.row_mark.capacity()) * 4
             + self.lin_moved.capacity()
             + self.runs.len() * std::mem::size_of::<Run>()
     }
@@ -993,13 +994,11 @@ impl Implicit {
                 &mut self.force,
             );
         }
-        if count > 0 {
-            // Springs on their stiff branch: the next step linearises every spring anew.
-            self.lin_fresh = false;
-        }
         if count == 0 {
             return false;
         }
+        // Springs on their stiff branch: the next step linearises every spring anew.
+        self.lin_fresh = false;
         for k in 0..nx * nz {
             self.rhs.set(k, self.rhs.get(k) + self.force.get(k) * dt);
         }
@@ -1017,13 +1016,13 @@ impl Implicit {
         if std::mem::take(&mut self.diag_kept) {
             // Only the springs around moved particles changed: their particles' sums again.
             let stamp = self.next_stamp();
-            let mut mark = std::mem::take(&mut self.av_mark);
+            let mut mark = std::mem::take(&mut self.row_mark);
             for k in (0..n).filter(|&k| self.lin_moved[k]) {
                 each_new_neighbour(nx, nz, k, &mut mark, stamp, |m| {
                     h.set(m, self.diag_exact(sys, m));
                 });
             }
-            self.av_mark = mark;
+            self.row_mark = mark;
             #[cfg(test)]
             self.check_diagonal(sys, &h);
         } else {
@@ -1052,44 +1051,57 @@ impl Implicit {
         }
     }
 
-    /// Particle `a`'s sum of its springs' diagonal blocks, added in the order the whole pass
-    /// ([`SpringSet::diagonal_range`] over the runs) adds them, so that it has the same bits (as
-    /// [`Implicit::row_exact`] for the product).
+    /// Particle `a`'s sum over its springs of `term(springs, e, oa, ob, first)` (spring `e` of
+    /// a direction's `springs`, between particles `e + oa` and `e + ob`; `first` where `a` is
+    /// `e + oa`), added in the order the passes over the runs ([`spans`]) add a spring's terms to
+    /// its two particles: the runs row by row, each run's first particles before its second
+    /// ones, the `down` springs last. So a row taken alone has the bits of the whole pass's.
     #[inline]
-    fn diag_exact(&self, sys: &System<'_>, a: usize) -> Vec3 {
+    fn stencil_sum(
+        &self,
+        sys: &System<'_>,
+        a: usize,
+        term: impl Fn(&SpringSet, usize, usize, usize, bool) -> Vec3,
+    ) -> Vec3 {
         let (nx, nz) = (sys.nx, sys.nz);
         let (i, j) = (a % nx, a / nx);
         let st = &self.springs;
-        let g = |set: &SpringSet, e: usize| {
-            let d = set.d.get(e);
-            Vec3::splat(set.ks[e]) + d * d * set.kd[e]
-        };
         let mut h = Vec3::ZERO;
         if j > 0 && i > 0 {
-            h += g(&st.diag, a - nx - 1);
+            h += term(&st.diag, a - nx - 1, 0, nx + 1, false);
         }
         if j > 0 && i + 1 < nx {
-            h += g(&st.anti, a - nx);
+            h += term(&st.anti, a - nx, 1, nx, false);
         }
         if i + 1 < nx {
-            h += g(&st.right, a);
+            h += term(&st.right, a, 0, 1, true);
         }
         if i > 0 {
-            h += g(&st.right, a - 1);
+            h += term(&st.right, a - 1, 0, 1, false);
         }
         if j + 1 < nz && i + 1 < nx {
-            h += g(&st.diag, a);
+            h += term(&st.diag, a, 0, nx + 1, true);
         }
         if j + 1 < nz && i > 0 {
-            h += g(&st.anti, a - 1);
+            h += term(&st.anti, a - 1, 1, nx, true);
         }
         if j + 1 < nz {
-            h += g(&st.down, a);
+            h += term(&st.down, a, 0, nx, true);
         }
         if j > 0 {
-            h += g(&st.down, a - nx);
+            h += term(&st.down, a - nx, 0, nx, false);
         }
         h
+    }
+
+    /// Particle `a`'s sum of its springs' diagonal blocks with the bits of the whole pass
+    /// ([`SpringSet::diagonal_range`] over the runs).
+    #[inline]
+    fn diag_exact(&self, sys: &System<'_>, a: usize) -> Vec3 {
+        self.stencil_sum(sys, a, |set, e, _, _, _| {
+            let d = set.d.get(e);
+            Vec3::splat(set.ks[e]) + d * d * set.kd[e]
+        })
     }
 
     /// In the unit tests: the diagonal's spring sums `h` taken around the moved particles have
@@ -1504,15 +1516,15 @@ impl Implicit {
         self.apply_v(sys);
     }
 
-    /// A stamp no row of `av_mark` holds yet (the marks of earlier passes then read as
+    /// A stamp no row of `row_mark` holds yet (the marks of earlier passes then read as
     /// unmarked).
     fn next_stamp(&mut self) -> u32 {
-        self.av_stamp = self.av_stamp.wrapping_add(1);
-        if self.av_stamp == 0 {
-            self.av_mark.fill(0);
-            self.av_stamp = 1;
+        self.row_stamp = self.row_stamp.wrapping_add(1);
+        if self.row_stamp == 0 {
+            self.row_mark.fill(0);
+            self.row_stamp = 1;
         }
-        self.av_stamp
+        self.row_stamp
     }
 
     /// `av = A v`. Without gas springs (whose rank-one terms couple every particle of a
@@ -1530,7 +1542,7 @@ impl Implicit {
             let stamp = self.next_stamp();
             let mut rows = std::mem::take(&mut self.av_rows);
             for &k in &rows {
-                self.av_mark[k as usize] = stamp;
+                self.row_mark[k as usize] = stamp;
             }
             for k in 0..n {
                 if same_bits(self.v.get(k), self.av_of.get(k)) {
@@ -1540,7 +1552,9 @@ impl Implicit {
                 if 8 * moved > n {
                     break;
                 }
-                each_new_neighbour(nx, nz, k, &mut self.av_mark, stamp, |m| rows.push(m as u32));
+                each_new_neighbour(nx, nz, k, &mut self.row_mark, stamp, |m| {
+                    rows.push(m as u32)
+                });
                 self.av_of.set(k, self.v.get(k));
             }
             if 8 * moved <= n {
@@ -1579,45 +1593,16 @@ impl Implicit {
         PARTIAL_PRODUCTS.with(|c| c.set(c.get() + 1));
     }
 
-    /// Row `a` of `A v` where no gas spring acts, its spring terms added in the order the whole
-    /// product ([`Implicit::apply_all`]) adds them (the directions' runs row by row, each run's
-    /// first particles before its second ones, the `down` springs last), so that it has the
-    /// same bits.
+    /// Row `a` of `A v` where no gas spring acts, with the bits of the whole product
+    /// ([`Implicit::apply_all`]; its springs' terms summed by [`Implicit::stencil_sum`]).
     #[inline]
     fn row_exact(&self, sys: &System<'_>, a: usize) -> Vec3 {
-        let (nx, nz) = (sys.nx, sys.nz);
-        let (i, j) = (a % nx, a / nx);
         let p = &self.v;
-        let st = &self.springs;
-        // The spring `e` of `set` between particles `e + oa` and `e + ob`: `H_e (p_a - p_b)`.
-        let w = |set: &SpringSet, e: usize, oa: usize, ob: usize| {
-            set.apply(e, p.get(e + oa) - p.get(e + ob))
-        };
-        let mut h = Vec3::ZERO;
-        if j > 0 && i > 0 {
-            h += -w(&st.diag, a - nx - 1, 0, nx + 1);
-        }
-        if j > 0 && i + 1 < nx {
-            h += -w(&st.anti, a - nx, 1, nx);
-        }
-        if i + 1 < nx {
-            h += w(&st.right, a, 0, 1);
-        }
-        if i > 0 {
-            h += -w(&st.right, a - 1, 0, 1);
-        }
-        if j + 1 < nz && i + 1 < nx {
-            h += w(&st.diag, a, 0, nx + 1);
-        }
-        if j + 1 < nz && i > 0 {
-            h += w(&st.anti, a - 1, 1, nx);
-        }
-        if j + 1 < nz {
-            h += w(&st.down, a, 0, nx);
-        }
-        if j > 0 {
-            h += -w(&st.down, a - nx, 0, nx);
-        }
+        // Spring `e`'s `H_e (p_a - p_b)`, added to its first particle and taken from its second.
+        let h = self.stencil_sum(sys, a, |set, e, oa, ob, first| {
+            let w = set.apply(e, p.get(e + oa) - p.get(e + ob));
+            if first { w } else { -w }
+        });
         let pa = p.get(a);
         let q = pa * self.inertia[a] + h * sys.dt2;
         let mut y = q + self.constraints[a].drag(pa);
