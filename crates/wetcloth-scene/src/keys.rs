@@ -12,6 +12,7 @@ pub const SIMULATION: &[&str] = &[
     "duration",
     "time_step",
     "integrator",
+    "implicit_budget",
     "frame_rate",
     "gravity",
 ];

@@ -11,7 +11,7 @@ use wetcloth::collide::{Cuboid, Key, Mesh, Plane, Sphere};
 use wetcloth::{
     AirModelKind, AirParams, ClothParams, Collider, ConfigError, GrabKey, GrabSpec, Integrator,
     PaintShape, PocketSeed, PressureForce, PressureSolve, Real, Shape, SimConfig, SimulationParams,
-    Vec3, WetPaint,
+    SolveBudget, Vec3, WetPaint,
 };
 
 /// A fixed-length array that, unlike `[T; N]`, refuses extra elements.
@@ -45,6 +45,7 @@ struct RawSimulation {
     duration: Option<Real>,
     time_step: Option<Real>,
     integrator: Option<Spanned<String>>,
+    implicit_budget: Option<Spanned<String>>,
     frame_rate: Option<Real>,
     gravity: Option<Arr<Real, 3>>,
 }
@@ -380,6 +381,16 @@ fn convert(
                 "integrator",
                 Integrator::ALL,
                 Integrator::name,
+            )?;
+        }
+        if let Some(b) = s.implicit_budget {
+            d.implicit_budget = named(
+                cx,
+                &b,
+                "simulation.implicit_budget",
+                "implicit budget",
+                SolveBudget::ALL,
+                SolveBudget::name,
             )?;
         }
     }

@@ -52,6 +52,7 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     let _ = writeln!(o, "duration = {}  # s", f(s.duration));
     let _ = writeln!(o, "time_step = {}  # s", f(s.time_step));
     let _ = writeln!(o, "integrator = {}", quote(s.integrator.name()));
+    let _ = writeln!(o, "implicit_budget = {}", quote(s.implicit_budget.name()));
     let _ = writeln!(o, "frame_rate = {}  # 1/s", f(s.frame_rate));
     let _ = writeln!(o, "gravity = {}  # m/s^2", v3(s.gravity));
     let _ = writeln!(o);

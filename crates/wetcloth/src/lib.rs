@@ -92,7 +92,7 @@ pub use metrics::FrameMetrics;
 pub use model::{Grid, Model};
 pub use params::{
     AirModelKind, AirParams, ClothParams, Integrator, PaintShape, PocketSeed, PressureForce,
-    PressureSolve, SimConfig, SimulationParams, WetPaint,
+    PressureSolve, SimConfig, SimulationParams, SolveBudget, WetPaint,
 };
 pub use sim::Simulation;
 pub use state::{Motion, State};

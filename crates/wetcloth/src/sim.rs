@@ -74,7 +74,11 @@ impl Simulation {
             state: State::at_rest(model.grid.rest_positions(config.cloth.position)),
             control,
             air: AirModel::Thesis(crate::air::Bubble::new(config.air.trapped_air)),
-            integrator: IntegratorState::new(config.simulation.integrator, &model),
+            integrator: IntegratorState::new(
+                config.simulation.integrator,
+                config.simulation.implicit_budget,
+                &model,
+            ),
             self_collision: config
                 .cloth
                 .self_collision

@@ -24,7 +24,7 @@ use crate::control::Control;
 use crate::math::{Real, Soa};
 use crate::measure::Measures;
 use crate::model::Model;
-use crate::params::{AirParams, Integrator};
+use crate::params::{AirParams, Integrator, SolveBudget};
 use crate::state::State;
 
 /// The air as the integrator sees it during one step.
@@ -62,12 +62,12 @@ pub(crate) enum IntegratorState {
 }
 
 impl IntegratorState {
-    /// The integrator `kind` for `model`.
-    pub fn new(kind: Integrator, model: &Model) -> Self {
+    /// The integrator `kind` for `model`, the implicit one solving to `budget`.
+    pub fn new(kind: Integrator, budget: SolveBudget, model: &Model) -> Self {
         match kind {
             Integrator::Verlet => IntegratorState::Verlet(verlet::Verlet::new(&model.grid)),
             Integrator::Implicit => {
-                IntegratorState::Implicit(Box::new(implicit::Implicit::new(model)))
+                IntegratorState::Implicit(Box::new(implicit::Implicit::new(model, budget)))
             }
         }
     }

@@ -22,7 +22,7 @@ mod stability;
 
 pub use air::{AirModelKind, AirParams, PocketSeed, PressureForce, PressureSolve};
 pub use cloth::{ClothParams, PaintShape, WetPaint};
-pub use simulation::{Integrator, SimulationParams};
+pub use simulation::{Integrator, SimulationParams, SolveBudget};
 
 use crate::air::gap::StickingPlane;
 use crate::collide::Collider;
