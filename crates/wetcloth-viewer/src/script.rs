@@ -19,6 +19,7 @@
 //! | `release` | release the left button |
 //! | `key NAME` | press and release a key: a letter, a digit, `Space`, `Period`, `Escape`, `F1`... |
 //! | `screenshot PATH` | save the window as a PNG |
+//! | `report` | print the readouts as one line on stdout (for measuring real time) |
 //! | `quit` | close the window |
 
 use std::path::{Path, PathBuf};
@@ -60,6 +61,9 @@ pub enum Command {
     Key(String),
     /// Save a screenshot.
     Screenshot(PathBuf),
+    /// Print the readouts (wall-clock and simulated time, real-time factor, steps and frames
+    /// a second, hand force) as one line on stdout.
+    Report,
     /// Close the window.
     Quit,
 }
@@ -206,6 +210,10 @@ pub fn parse(text: &str) -> Result<Vec<Command>, ScriptError> {
                 let rest = line["screenshot".len()..].trim();
                 Command::Screenshot(PathBuf::from(rest))
             }
+            "report" => {
+                want(0..=0, "report")?;
+                Command::Report
+            }
             "quit" => {
                 want(0..=0, "quit")?;
                 Command::Quit
@@ -213,7 +221,7 @@ pub fn parse(text: &str) -> Result<Vec<Command>, ScriptError> {
             other => {
                 return Err(err(format!(
                     "unknown command `{other}` (wait, wait_frames, wait_sim, move, pick, \
-                     pick_particle, drag_to, wheel, pin, release, key, screenshot, quit)"
+                     pick_particle, drag_to, wheel, pin, release, key, screenshot, report, quit)"
                 )));
             }
         };
@@ -279,6 +287,13 @@ mod tests {
             Command::Screenshot(PathBuf::from("out dir/shot.png"))
         );
         assert_eq!(s[15], Command::Quit);
+    }
+
+    #[test]
+    fn report_takes_no_arguments() {
+        assert_eq!(parse("report\n").unwrap(), vec![Command::Report]);
+        let e = parse("report now\n").unwrap_err().to_string();
+        assert!(e.contains("usage: report"), "{e}");
     }
 
     #[test]

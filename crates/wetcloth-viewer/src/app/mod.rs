@@ -169,6 +169,7 @@ impl ViewerApp {
                 drag: None,
                 shot: None,
                 finished: false,
+                begun: std::time::Instant::now(),
             }),
             exit_after_script: opts.exit_after_script,
             final_screenshot: opts.screenshot,

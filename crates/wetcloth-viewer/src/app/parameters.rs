@@ -17,6 +17,8 @@ pub(super) struct Edit {
     rate: f64,
     resolution: usize,
     integrator: wetcloth::Integrator,
+    /// How much the implicit integrator solves a step.
+    budget: wetcloth::SolveBudget,
 }
 
 impl Edit {
@@ -30,6 +32,7 @@ impl Edit {
             rate: (1.0 / c.simulation.time_step).round(),
             resolution: c.cloth.resolution[0],
             integrator: c.simulation.integrator,
+            budget: c.simulation.implicit_budget,
         }
     }
 
@@ -59,6 +62,7 @@ impl Edit {
             c.simulation.time_step = 1.0 / self.rate;
         }
         c.simulation.integrator = self.integrator;
+        c.simulation.implicit_budget = self.budget;
         if self.resolution != c.cloth.resolution[0] {
             // Keep the aspect of non-square grids; scene grabs name particles of the old grid.
             let r0 = c.cloth.resolution;
@@ -81,6 +85,14 @@ fn slider<Num: egui::emath::Numeric>(
     range: std::ops::RangeInclusive<Num>,
 ) -> egui::Slider<'_> {
     egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
+}
+
+/// The panel's name for an implicit solve budget.
+fn budget_label(b: wetcloth::SolveBudget) -> &'static str {
+    match b {
+        wetcloth::SolveBudget::Interactive => "Interactive (real time)",
+        wetcloth::SolveBudget::Converged => "Converged (accurate)",
+    }
 }
 
 impl ViewerApp {
@@ -148,7 +160,23 @@ impl ViewerApp {
                             "Implicit (large steps)",
                         );
                     });
-                switched = e.integrator != before;
+                ui.end_row();
+                ui.label("Implicit solve").on_hover_text(
+                    "Interactive: three coarse solves a step, for real time at 1/60 s. \
+                     Converged: solved until contacts, friction and the bubble's pressure \
+                     settle, as batch runs do (see docs/integrators.md)",
+                );
+                let before_budget = e.budget;
+                ui.add_enabled_ui(e.integrator == wetcloth::Integrator::Implicit, |ui| {
+                    egui::ComboBox::from_id_salt("implicit_budget")
+                        .selected_text(budget_label(e.budget))
+                        .show_ui(ui, |ui| {
+                            for b in wetcloth::SolveBudget::ALL {
+                                ui.selectable_value(&mut e.budget, b, budget_label(b));
+                            }
+                        });
+                });
+                switched = e.integrator != before || e.budget != before_budget;
                 ui.end_row();
                 ui.label("Time step");
                 done(
@@ -226,6 +254,14 @@ mod tests {
         assert!((c.simulation.time_step - 1.0 / 120.0).abs() < 1e-15);
         assert!(c.validate().is_ok());
         assert_eq!(Edit::from_config(&c), e3, "round trip");
+        let mut e4 = e3.clone();
+        e4.budget = wetcloth::SolveBudget::Interactive;
+        let c = e4.apply(&cfg);
+        assert_eq!(
+            c.simulation.implicit_budget,
+            wetcloth::SolveBudget::Interactive
+        );
+        assert_eq!(Edit::from_config(&c), e4, "round trip");
     }
 
     /// One frame of a headless egui context showing `slider` on `value`; returns the value.

@@ -27,6 +27,8 @@ pub(super) struct Player {
     /// Waiting for a screenshot to be written.
     pub(super) shot: Option<Receiver<Result<PathBuf, String>>>,
     pub(super) finished: bool,
+    /// When the script started (`report` prints the wall-clock time since).
+    pub(super) begun: Instant,
 }
 
 impl ViewerApp {
@@ -41,6 +43,7 @@ impl ViewerApp {
             )
         };
         let snap = Arc::clone(&self.snap);
+        let frame_period = self.frame_time.1;
         let (view_proj, vp) = (self.view_proj, self.viewport());
         let Some(pl) = &mut self.player else {
             return;
@@ -176,6 +179,24 @@ impl ViewerApp {
                     pl.commands.pop_front();
                     pl.started = None;
                     break;
+                }
+                ScriptCmd::Report => {
+                    let fps = if frame_period > 0.0 {
+                        1.0 / frame_period
+                    } else {
+                        0.0
+                    };
+                    println!(
+                        "wetcloth: report wall {:.3} s, simulated {:.4} s, real-time factor \
+                         {:.3} (last 0.5 s), {:.1} steps/s, {:.1} frames/s, grab force {:.4} N",
+                        pl.begun.elapsed().as_secs_f64(),
+                        snap.metrics.time,
+                        snap.realtime_factor,
+                        snap.steps_per_second,
+                        fps,
+                        snap.metrics.grab_force
+                    );
+                    true
                 }
                 ScriptCmd::Quit => {
                     actions.push(ScriptAction::Quit);
