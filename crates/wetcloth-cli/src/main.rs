@@ -85,7 +85,6 @@ fn dispatch(mut cli: Cli) -> Result<(), CliError> {
             threads::start_pool(n)?;
         }
         Command::View(_) => {
-            view::leave_a_core_to_the_simulation();
             threads::start_pool(threads)?;
         }
         Command::Bench(args) => {

@@ -34,28 +34,6 @@ pub struct ViewArgs {
     pub record_dir: Option<PathBuf>,
 }
 
-/// Leaves a core to the simulation where the window is drawn in software: Mesa's software
-/// rasterisers (llvmpipe, lavapipe) draw on as many threads as there are cores
-/// (`LP_NUM_THREADS`), and on a two-core machine they took the simulation thread's core: the
-/// thesis demo pulled at 1/60 s fell to 0.88 times real time, where with one drawing thread it
-/// keeps real time (at 8 instead of 9 frames a second). Sets `LP_NUM_THREADS` to the cores less
-/// one unless the user set it; a hardware driver does not read it.
-///
-/// Call before any other thread starts (the process environment is not synchronised).
-pub fn leave_a_core_to_the_simulation() {
-    if std::env::var_os("LP_NUM_THREADS").is_some() {
-        return;
-    }
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let threads = cores.saturating_sub(1).max(1);
-    // SAFETY: called from `main` before the thread pool, the window or any other thread
-    // exists, so nothing reads the environment concurrently.
-    #[allow(unsafe_code)]
-    unsafe {
-        std::env::set_var("LP_NUM_THREADS", threads.to_string());
-    }
-}
-
 /// Runs `wetcloth view`.
 pub fn view(args: &ViewArgs) -> Result<(), CliError> {
     let mut opts = match &args.scene {

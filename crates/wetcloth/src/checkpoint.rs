@@ -2,8 +2,8 @@
 //! stored and continued bit for bit.
 //!
 //! A [`Checkpoint`] holds the parts of a [`Simulation`] that are not rebuilt from its
-//! configuration: the [`State`] (positions, motion, contacts and their slides' friction, step
-//! count), the [`Control`] (grabs with their anchors and last targets, which particles are
+//! configuration: the [`State`] (positions, motion, contacts and their slides' friction, the
+//! implicit integrator's last accelerations, step count), the [`Control`] (grabs with their anchors and last targets, which particles are
 //! held, the hands' work so far, the air switch), the [`AirModel`] (the thesis' bubble or the
 //! sealed pockets with their ids, amounts and sealing state), the self-collision neighbour
 //! lists with their reference positions, the cell measures of the current state and the
@@ -37,7 +37,7 @@ use crate::sim::Simulation;
 use crate::state::{Motion, State};
 
 /// Version of a checkpoint's contents; raised whenever a stored type changes.
-pub const CHECKPOINT_VERSION: u32 = 2;
+pub const CHECKPOINT_VERSION: u32 = 3;
 
 /// Everything a step carries to the next (see the module docs).
 #[derive(Clone, Debug)]
@@ -124,6 +124,12 @@ impl Checkpoint {
         }
         if s.slides.len() != n {
             return bad(format!("{} slides for {n} particles", s.slides.len()));
+        }
+        if !soa_fits(&s.acceleration, n) {
+            return bad(format!(
+                "{} accelerations for {n} particles",
+                s.acceleration.x.len()
+            ));
         }
         let c = &self.control;
         if c.held.len() != n || c.targets.len() > c.grabs.len() {

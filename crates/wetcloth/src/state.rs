@@ -46,6 +46,10 @@ pub struct State {
     /// was held, free, or stepped by the explicit integrator): the implicit step starts a
     /// contact that was sliding, and still moves, sliding against the friction it had.
     pub slides: Vec<Slide>,
+    /// Each particle's mean acceleration over the last step of the implicit integrator, m/s^2
+    /// (zero at rest and where another integrator stepped): the interactive solve budget's
+    /// first guess of the next step's velocity is the velocity now plus this times the step.
+    pub acceleration: Soa,
     /// Steps taken since t = 0.
     pub steps: u64,
 }
@@ -59,6 +63,7 @@ impl State {
             x,
             contact: vec![false; n],
             slides: vec![Slide::None; n],
+            acceleration: Soa::zeros(n),
             steps: 0,
         }
     }

@@ -786,11 +786,11 @@ fn interactive_budget_keeps_the_closed_forms() {
 /// What the viewer runs: the thesis demo (50 x 50, 400 cm^3 of trapped air) lifted 5 cm by its
 /// centre over 1.5 s at 1/60 s with the interactive budget, then held for 1 s. The hand's peak
 /// force lies within the explicit integrator's spread at nearby steps widened by 10 % (0.096 to
-/// 0.168 N at 1/10000 to 1/30000 s, docs/reproduction.md; measured 0.133 N), the final contact
-/// fraction within 10 % of the explicit 0.458 to 0.472 (measured 0.452), Boyle's law holds at
-/// every step, and the held cloth comes to rest (kinetic energy below 1e-6 J; measured 4e-8 J).
-/// The budget is what makes it fast: 32 conjugate-gradient iterations a step here against the
-/// converged budget's 237 (1.65 against 0.28 times real time on one thread,
+/// 0.168 N at 1/10000 to 1/30000 s, docs/reproduction.md; measured 0.095 N), the final contact
+/// fraction within 10 % of the explicit 0.458 to 0.472 (measured 0.451), Boyle's law holds at
+/// every step, and the held cloth comes to rest (kinetic energy below 1e-6 J; measured 9e-8
+/// J). The budget is what makes it fast: 22 conjugate-gradient iterations a step here against
+/// the converged budget's 237 (2.05 against 0.29 times real time on one thread,
 /// docs/performance.md); required below 50.
 #[test]
 fn interactive_budget_pulls_the_thesis_demo_within_the_explicit_spread() {

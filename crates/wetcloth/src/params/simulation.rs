@@ -87,7 +87,8 @@ pub enum SolveBudget {
     /// the step starts with, one after the bubble's pressure correction, one after re-checking
     /// the contacts (pulling ones released, held ones outside the friction cone sliding);
     /// particles that reach a collider during the step are put on its surface after it, as the
-    /// explicit integrator does. For interactive use (the viewer): the thesis demo pulled at
+    /// explicit integrator does; the first guess is the velocity plus the last step's
+    /// acceleration. For interactive use (the viewer): the thesis demo pulled at
     /// 1/60 s in real time, its hand force within the explicit integrator's spread
     /// (docs/integrators.md measures what it gives up).
     Interactive,
