@@ -1765,8 +1765,8 @@ impl Implicit {
             rz += self.r.get(k).dot(z);
         }
         // The converged budget's residual is relative to the right-hand side; the interactive
-        // one's to the residual the step's first solve started from (see
-        // `INTERACTIVE_TOLERANCE`).
+        // one's to the smaller of that and the residual the step's first solve started from
+        // (see `INTERACTIVE_TOLERANCE`).
         let scale = match self.budget {
             SolveBudget::Converged => bb,
             SolveBudget::Interactive => bb.min(*self.first_residual.get_or_insert(rr)),
@@ -1942,7 +1942,7 @@ impl Implicit {
             self.rhs.set(k, v * m + self.force.get(k) * dt);
             // First guess: the velocity after gravity alone (exact in free fall); with the
             // interactive budget, after the last step's acceleration (its few coarse solves
-            // start closer: 19 iterations a step instead of 32 on the pulled demo).
+            // start closer: 22 iterations a step instead of 32 on the pulled demo).
             let a = match self.budget {
                 SolveBudget::Converged => model.gravity,
                 SolveBudget::Interactive => state.acceleration.get(k),
