@@ -3,11 +3,11 @@
 //!
 //! A [`Checkpoint`] holds the parts of a [`Simulation`] that are not rebuilt from its
 //! configuration: the [`State`] (positions, motion, contacts and their slides' friction, the
-//! implicit integrator's last accelerations, step count), the [`Control`] (grabs with their anchors and last targets, which particles are
-//! held, the hands' work so far, the air switch), the [`AirModel`] (the thesis' bubble or the
-//! sealed pockets with their ids, amounts and sealing state), the self-collision neighbour
-//! lists with their reference positions, the cell measures of the current state and the
-//! energy audit. The model (grid, masses, colliders) is rebuilt from the configuration, and
+//! implicit integrator's last accelerations, step count), the [`Control`] (grabs with their
+//! anchors and last targets, which particles are held, the hands' work so far, the air
+//! switch), the [`AirModel`] (the thesis' bubble or the sealed pockets with their ids, amounts
+//! and sealing state), the self-collision neighbour lists with their reference positions, the
+//! cell measures of the current state and the energy audit. The model (grid, masses, colliders) is rebuilt from the configuration, and
 //! the integrator's buffers are scratch that every step overwrites before reading, so neither
 //! is stored.
 //! [`Simulation::restore`] builds a simulation from the configuration and a checkpoint;

@@ -47,8 +47,9 @@ pub struct State {
     /// contact that was sliding, and still moves, sliding against the friction it had.
     pub slides: Vec<Slide>,
     /// Each particle's mean acceleration over the last step of the implicit integrator, m/s^2
-    /// (zero at rest and where another integrator stepped): the interactive solve budget's
-    /// first guess of the next step's velocity is the velocity now plus this times the step.
+    /// (zero at rest; the explicit integrator leaves it as it was): the interactive solve
+    /// budget's first guess of the next step's velocity is the velocity now plus this times the
+    /// step.
     pub acceleration: Soa,
     /// Steps taken since t = 0.
     pub steps: u64,

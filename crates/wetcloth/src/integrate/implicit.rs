@@ -639,9 +639,6 @@ pub(crate) struct Implicit {
     av_gas_free: bool,
     /// The last step's final constraints (those of its last product), beside this step's.
     prev_constraints: Vec<Constraint>,
-    /// Whether this step's springs kept the last step's linearisation where their particles did
-    /// not move (`lin_moved`).
-    lin_kept: bool,
     av_rows: Vec<u32>,
     row_mark: Vec<u32>,
     row_stamp: u32,
@@ -665,8 +662,6 @@ pub(crate) struct Implicit {
     /// The squared residual the step's first solve started from (the interactive budget's
     /// reference, with the right-hand side's).
     first_residual: Option<Real>,
-    /// The velocities at the step's start, m/s.
-    v_start: Soa,
 }
 
 /// The step's constants the matrix needs.
@@ -724,7 +719,6 @@ impl Implicit {
             av_dt2: 0.0,
             av_gas_free: false,
             prev_constraints: vec![Constraint::Free; n],
-            lin_kept: false,
             av_rows: Vec::new(),
             row_mark: vec![0; n],
             row_stamp: 0,
@@ -737,7 +731,6 @@ impl Implicit {
             total_iterations: 0,
             budget,
             first_residual: None,
-            v_start: Soa::zeros(n),
         }
     }
 
@@ -835,7 +828,6 @@ impl Implicit {
             to.clone_from(from);
         }
         self.diag_kept = fresh;
-        self.lin_kept = fresh;
         self.lin_fresh = true;
         // The pressure force of 1 Pa on every particle: S N_i (or by area).
         if self.regions.list.is_empty() && self.regions.extra.is_empty() {
@@ -1621,8 +1613,8 @@ impl Implicit {
     }
 
     /// At a step's start, after [`Implicit::precondition`]: keeps the last step's product
-    /// `av` (taken at its final velocities and constraints, `fresh` whether it was current)
-    /// as this step's, marking for the next [`Implicit::apply_v`] only the rows whose matrix
+    /// `av` (taken at its final velocities and constraints; `fresh`: it was current then and
+    /// this step's `forces` kept the springs whose particles did not move) as this step's, marking for the next [`Implicit::apply_v`] only the rows whose matrix
     /// changed: around the particles whose springs were linearised anew, and where a slide's
     /// drag changed. That holds where the springs elsewhere kept their linearisation, the step
     /// has the last one's size (the inertia and `dt^2` the same) and no gas spring acts now or
@@ -1630,12 +1622,7 @@ impl Implicit {
     /// instead of the whole grid.
     fn keep_product(&mut self, sys: &System<'_>, fresh: bool) {
         let gas_free = self.gas.iter().all(|&g| g == 0.0);
-        if !(fresh
-            && self.lin_kept
-            && gas_free
-            && self.av_gas_free
-            && sys.dt2.to_bits() == self.av_dt2.to_bits())
-        {
+        if !(fresh && gas_free && self.av_gas_free && sys.dt2.to_bits() == self.av_dt2.to_bits()) {
             return;
         }
         let (nx, nz) = (sys.nx, sys.nz);
@@ -1948,7 +1935,6 @@ impl Implicit {
                 SolveBudget::Interactive => state.acceleration.get(k),
             };
             self.v.set(k, v + a * dt);
-            self.v_start.set(k, v);
             // The velocity at the start, for the contacts below (`r` is free until the solve).
             self.r.set(k, v);
         }
@@ -2005,7 +1991,8 @@ impl Implicit {
             dt2: dt * dt,
             regions: &regions,
         };
-        let product_current = self.av_fresh;
+        // Read before `precondition` consumes them.
+        let product_current = self.av_fresh && self.diag_kept;
         self.precondition(&sys);
         self.keep_product(&sys, product_current);
         self.iterations = 0;
@@ -2261,10 +2248,11 @@ impl Implicit {
                 Constraint::Normal { drag, .. } if touched => Slide::Drag(drag / dt),
                 _ => Slide::None,
             };
+            // The step's mean acceleration: from the velocity at its start (the bits the
+            // first guess above started from) to the one it ends with.
+            let v0 = (x - prev.get(k)) / dt;
+            state.acceleration.set(k, ((to - x) / dt - v0) / dt);
             prev.set(k, to);
-            state
-                .acceleration
-                .set(k, ((to - x) / dt - self.v_start.get(k)) / dt);
         }
         std::mem::swap(prev, &mut state.x);
         // The pressure the step applied: the gas spring's, linearised at the end of the step.

@@ -83,7 +83,8 @@ pub enum SolveBudget {
     /// of 1e-5: the accuracy that agrees with the explicit integrator (docs/integrators.md).
     #[default]
     Converged,
-    /// At most three solves a step, each to a relative residual of 1e-2: one with the contacts
+    /// At most three solves a step, each to a hundredth of the smaller of the right-hand side
+    /// and the step's first residual: one with the contacts
     /// the step starts with, one after the bubble's pressure correction, one after re-checking
     /// the contacts (pulling ones released, held ones outside the friction cone sliding);
     /// particles that reach a collider during the step are put on its surface after it, as the
