@@ -264,6 +264,15 @@ impl ViewerApp {
         self.frame_time.0 = Some(now);
         self.snap = snap;
     }
+
+    /// Displayed frames per second (the smoothed frame period's inverse; 0 before two frames).
+    pub(super) fn frame_rate(&self) -> f64 {
+        if self.frame_time.1 > 0.0 {
+            1.0 / self.frame_time.1
+        } else {
+            0.0
+        }
+    }
 }
 
 fn style(ctx: &egui::Context) {

@@ -40,11 +40,7 @@ impl ViewerApp {
                     "Steps / s",
                     format!("{:8.0}", s.steps_per_second).into(),
                 );
-                let fps = if self.frame_time.1 > 0.0 {
-                    1.0 / self.frame_time.1
-                } else {
-                    0.0
-                };
+                let fps = self.frame_rate();
                 row(ui, "Frame rate", format!("{fps:8.1} fps").into());
                 row(
                     ui,

@@ -43,7 +43,7 @@ impl ViewerApp {
             )
         };
         let snap = Arc::clone(&self.snap);
-        let frame_period = self.frame_time.1;
+        let fps = self.frame_rate();
         let (view_proj, vp) = (self.view_proj, self.viewport());
         let Some(pl) = &mut self.player else {
             return;
@@ -181,11 +181,6 @@ impl ViewerApp {
                     break;
                 }
                 ScriptCmd::Report => {
-                    let fps = if frame_period > 0.0 {
-                        1.0 / frame_period
-                    } else {
-                        0.0
-                    };
                     println!(
                         "wetcloth: report wall {:.3} s, simulated {:.4} s, real-time factor \
                          {:.3} (last 0.5 s), {:.1} steps/s, {:.1} frames/s, grab force {:.4} N",
