@@ -524,6 +524,7 @@ impl Simulation {
                 reference,
                 measures: &mut self.measures,
                 rows_per_task: exec::row_split(self.model.grid.nx, self.model.grid.nz),
+                start: t_next - dt,
             },
         );
 

@@ -639,6 +639,48 @@ fn closed_forms_hold_for_every_integrator() {
     }
 }
 
+/// Kinetic and static friction at large steps, for every integrator: a 10 x 10 cloth (10 cm,
+/// 10 g, 500/125 N/m, no damping) lying on a level plane under gravity tilted 20 degrees slides
+/// at `g (sin 20 - mu cos 20)` = 1.510 m/s^2 with mu = 0.2 and holds still with mu = 0.5, at
+/// the implicit integrator's 1/600 s and 1/120 s (both budgets) as at Verlet's 1/12000 s.
+/// Backward Euler's velocity is exact for a constant acceleration; the tolerance, 1 % of the
+/// closed form, leaves room only for the first step's grip (a slide starts held).
+#[test]
+fn friction_holds_and_slides_at_large_steps() {
+    let theta: Real = 20f64.to_radians();
+    let g = 9.8;
+    let runs = [
+        (wetcloth::Integrator::Verlet, 12000.0, wetcloth::SolveBudget::Converged),
+        (wetcloth::Integrator::Implicit, 600.0, wetcloth::SolveBudget::Converged),
+        (wetcloth::Integrator::Implicit, 120.0, wetcloth::SolveBudget::Converged),
+        (wetcloth::Integrator::Implicit, 600.0, wetcloth::SolveBudget::Interactive),
+        (wetcloth::Integrator::Implicit, 120.0, wetcloth::SolveBudget::Interactive),
+    ];
+    for (integrator, rate, budget) in runs {
+        for mu in [0.2, 0.5] {
+            let mut cfg = bare(10);
+            cfg.simulation.integrator = integrator;
+            cfg.simulation.implicit_budget = budget;
+            cfg.simulation.time_step = 1.0 / rate;
+            cfg.simulation.gravity = Vec3::new(g * theta.sin(), -g * theta.cos(), 0.0);
+            cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, mu)];
+            cfg.cloth.position.y = cfg.cloth.particle_radius();
+            let mut sim = Simulation::new(cfg).unwrap();
+            let x0 = mean(&sim.positions().x);
+            run(&mut sim, 0.5);
+            let a = (g * (theta.sin() - mu * theta.cos())).max(0.0);
+            let got = mean(&sim.velocities().x) / sim.time();
+            let dx = mean(&sim.positions().x) - x0;
+            let what = format!("{} at 1/{rate} s ({budget:?}), mu {mu}", integrator.name());
+            if a == 0.0 {
+                assert!(dx.abs() < 1e-9, "{what}: static friction holds, moved {dx}");
+            } else {
+                assert!((got - a).abs() < 0.01 * a, "{what}: slides at {got} vs {a}");
+            }
+        }
+    }
+}
+
 /// The implicit integrator gives bit-identical states with 1 and 2 threads.
 #[test]
 fn implicit_results_do_not_depend_on_the_thread_count() {

@@ -57,7 +57,8 @@ use super::{Air, Fused};
 use crate::air::Timing;
 use crate::air::region::Regions;
 use crate::checks;
-use crate::collide::contact;
+use crate::collide::contact::{self, Frames};
+use crate::collide::Collider;
 use crate::control::Control;
 use crate::forces::pressure;
 use crate::math::{Real, RowMut, Soa, Vec3, row};
@@ -155,6 +156,10 @@ enum Constraint {
     /// the step) becomes a drag-only slide: `t` zero, `kinetic` zero and `drag` over the whole
     /// tangent plane, friction that can slow a slide to rest but never reverse it and never do
     /// positive work. A particle landing sliding starts as one too.
+    ///
+    /// `u` (m/s) is the surface's velocity (zero on a still collider; its normal part is in `vn`): the
+    /// slide, its direction `t` and its drag are relative to the surface, so a moving collider
+    /// carries the cloth by friction (the drag's share of it is in [`Constraint::friction`]).
     Normal {
         n: Vec3,
         vn: Real,
@@ -162,10 +167,12 @@ enum Constraint {
         drag: Real,
         t: Vec3,
         kinetic: Real,
+        u: Vec3,
     },
-    /// A contact held by static friction: its velocity is `n vn`, nothing tangential, as long
-    /// as the force that holds it stays inside the friction cone.
-    Stick { n: Vec3, vn: Real, mu: Real },
+    /// A contact held by static friction: its velocity is `n vn` plus the surface's tangential
+    /// velocity (`u`, m/s, the surface's whole velocity; zero on a still collider), as long as
+    /// the force that holds it stays inside the friction cone.
+    Stick { n: Vec3, vn: Real, mu: Real, u: Vec3 },
     /// Its velocity is fixed: a hand.
     Fixed(Vec3),
 }
@@ -192,10 +199,14 @@ impl Constraint {
     }
 
     /// The kinetic friction impulse of a slide that does not depend on its speed (N s):
-    /// `kinetic` against its direction `t`.
+    /// `kinetic` against its direction `t`, and on a moving surface the drag's pull towards the
+    /// surface's velocity `u` (the drag acts on the velocity relative to it).
     #[inline]
     fn friction(self) -> Vec3 {
         match self {
+            Constraint::Normal { t, kinetic, u, .. } if u != Vec3::ZERO => {
+                -t * kinetic + self.drag(u)
+            }
             Constraint::Normal { t, kinetic, .. } => -t * kinetic,
             _ => Vec3::ZERO,
         }
@@ -206,8 +217,26 @@ impl Constraint {
     fn value(self) -> Vec3 {
         match self {
             Constraint::Free => Vec3::ZERO,
+            Constraint::Stick { n, vn, u, .. } if u != Vec3::ZERO => n * vn + u - n * n.dot(u),
             Constraint::Normal { n, vn, .. } | Constraint::Stick { n, vn, .. } => n * vn,
             Constraint::Fixed(v) => v,
+        }
+    }
+
+    /// The tangential velocity of `v` relative to the surface of this contact (m/s): `v`
+    /// without its normal part, less the surface's velocity.
+    #[inline]
+    fn slip(self, v: Vec3) -> Vec3 {
+        match self {
+            Constraint::Normal { n, u, .. } | Constraint::Stick { n, u, .. } => {
+                let vt = v - n * n.dot(v);
+                if u == Vec3::ZERO {
+                    vt
+                } else {
+                    vt - (u - n * n.dot(u))
+                }
+            }
+            _ => v,
         }
     }
 }
@@ -659,6 +688,8 @@ pub(crate) struct Implicit {
     pub total_iterations: u64,
     /// How much solving a step does.
     budget: SolveBudget,
+    /// The colliders of the step where any moves ([`Surface::of_step`]).
+    surfaces: Vec<Surface>,
     /// The squared residual the step's first solve started from (the interactive budget's
     /// reference, with the right-hand side's).
     first_residual: Option<Real>,
@@ -731,6 +762,7 @@ impl Implicit {
             total_iterations: 0,
             budget,
             first_residual: None,
+            surfaces: Vec::new(),
         }
     }
 
@@ -1168,12 +1200,12 @@ impl Implicit {
     /// whatever pulled it: a lifted cloth that sinks onto the table as it is pulled in was pinned
     /// there, ring by ring.
     fn landing_friction(&self, k: usize, stick: Constraint) -> Constraint {
-        let Constraint::Stick { n, vn, mu } = stick else {
+        let Constraint::Stick { n, vn, mu, u } = stick else {
             return stick;
         };
         let v = self.v.get(k);
         let stopped = (vn - v.dot(n)).max(0.0);
-        let vt = (v - n * n.dot(v)).length();
+        let vt = stick.slip(v).length();
         let held = mu * stopped;
         if held >= vt {
             stick
@@ -1185,6 +1217,7 @@ impl Implicit {
                 drag: self.inertia[k] * held / (vt - held),
                 t: Vec3::ZERO,
                 kinetic: 0.0,
+                u,
             }
         }
     }
@@ -1201,7 +1234,7 @@ impl Implicit {
     fn held_change(
         &self,
         k: usize,
-        (n, vn, mu): (Vec3, Real, Real),
+        (n, vn, mu, u): (Vec3, Real, Real, Vec3),
         state: &State,
         dt: Real,
     ) -> Option<Constraint> {
@@ -1215,7 +1248,8 @@ impl Implicit {
             return None;
         }
         let v0 = state.velocity(k, dt);
-        let vt = (v0 - n * n.dot(v0))
+        let vt = self.constraints[k]
+            .slip(v0)
             .length()
             .max(self.slip_speed(k, n, shear - mu * push));
         Some(Constraint::Normal {
@@ -1225,6 +1259,7 @@ impl Implicit {
             drag: mu * push / vt.max(SLIDE_EPSILON),
             t: (n * push - lambda) / shear,
             kinetic: mu * push,
+            u,
         })
     }
 
@@ -1286,7 +1321,7 @@ impl Implicit {
     fn slide_change(
         &self,
         k: usize,
-        (n, vn, mu): (Vec3, Real, Real),
+        (n, vn, mu, u): (Vec3, Real, Real, Vec3),
         (drag, t, kinetic): (Real, Vec3, Real),
         vt: Vec3,
         push: Real,
@@ -1303,6 +1338,7 @@ impl Implicit {
                     drag: new,
                     t,
                     kinetic,
+                    u,
                 },
                 true,
             ));
@@ -1314,7 +1350,7 @@ impl Implicit {
         let vt = vt - n * n.dot(vt);
         let speed = vt.length();
         if vt.dot(t) <= 0.0 || speed <= STOPPED_SPEED {
-            return Some((stopped_slide(n, vn, mu, kinetic, speed), true));
+            return Some((stopped_slide((n, vn, mu, u), kinetic, speed), true));
         }
         let dir = vt / speed;
         let moved = (dir * friction - t * kinetic).length() > 0.25 * friction.max(kinetic);
@@ -1325,6 +1361,7 @@ impl Implicit {
             drag: friction / speed.max(SLIDE_EPSILON),
             t: dir,
             kinetic: friction,
+            u,
         };
         Some((c, moved))
     }
@@ -1334,19 +1371,20 @@ impl Implicit {
     fn stop_reversed_slides(&mut self) -> bool {
         let mut any = false;
         for k in 0..self.constraints.len() {
+            let c = self.constraints[k];
             if let Constraint::Normal {
                 n,
                 vn,
                 mu,
                 t,
                 kinetic,
+                u,
                 ..
-            } = self.constraints[k]
+            } = c
             {
-                let v = self.v.get(k);
-                let vt = v - n * n.dot(v);
+                let vt = c.slip(self.v.get(k));
                 if t != Vec3::ZERO && vt.dot(t) <= 0.0 {
-                    self.constraints[k] = stopped_slide(n, vn, mu, kinetic, vt.length());
+                    self.constraints[k] = stopped_slide((n, vn, mu, u), kinetic, vt.length());
                     self.precondition_one(k);
                     any = true;
                 }
@@ -1368,8 +1406,8 @@ impl Implicit {
                     self.precondition_one(k);
                     changed = true;
                 }
-                Constraint::Stick { n, vn, mu } => {
-                    if let Some(c) = self.held_change(k, (n, vn, mu), state, dt) {
+                Constraint::Stick { n, vn, mu, u } => {
+                    if let Some(c) = self.held_change(k, (n, vn, mu, u), state, dt) {
                         self.constraints[k] = c;
                         self.precondition_one(k);
                         changed = true;
@@ -1918,6 +1956,9 @@ impl Implicit {
             }
         }));
         self.forces(model, &state.x);
+        // The colliders where they are over the step (for moving ones).
+        let mut surfaces = std::mem::take(&mut self.surfaces);
+        Surface::of_step(model, fused.start, dt, &mut surfaces);
         let c = model.damping;
         let Motion::Previous(prev) = &state.motion else {
             unreachable!("converted above")
@@ -1955,12 +1996,12 @@ impl Implicit {
                 continue;
             }
             let (x, v) = (state.x.get(k), self.r.get(k));
-            let c = contact_constraint(model, k, x, v, dt, state.contact[k]);
-            let Constraint::Stick { n, vn, mu } = c else {
+            let c = contact_constraint(model, &surfaces, k, x, v, dt, state.contact[k]);
+            let Constraint::Stick { n, vn, mu, u } = c else {
                 self.constraints[k] = c;
                 continue;
             };
-            let vt = v - n * n.dot(v);
+            let vt = c.slip(v);
             let speed = vt.length();
             self.constraints[k] = match state.slides[k] {
                 _ if speed <= SLIDE_EPSILON => c,
@@ -1972,6 +2013,7 @@ impl Implicit {
                     drag: f * dt / speed,
                     t: vt / speed,
                     kinetic: f * dt,
+                    u,
                 },
                 Slide::Drag(rate) => Constraint::Normal {
                     n,
@@ -1980,6 +2022,7 @@ impl Implicit {
                     drag: rate * dt,
                     t: Vec3::ZERO,
                     kinetic: 0.0,
+                    u,
                 },
             };
         }
@@ -2052,7 +2095,8 @@ impl Implicit {
             self.landed.clear();
             self.landed.resize(n, false);
             for k in 0..n {
-                match self.constraints[k] {
+                let c = self.constraints[k];
+                match c {
                     Constraint::Normal {
                         n: normal,
                         vn,
@@ -2060,6 +2104,7 @@ impl Implicit {
                         drag,
                         t,
                         kinetic,
+                        u,
                     } => {
                         // The normal impulse: the residual's normal part (friction is
                         // tangential).
@@ -2072,9 +2117,9 @@ impl Implicit {
                             changed = true;
                         } else if let Some(c) = self.slide_change(
                             k,
-                            (normal, vn, mu),
+                            (normal, vn, mu, u),
                             (drag, t, kinetic),
-                            v - normal * normal.dot(v),
+                            c.slip(v),
                             push,
                         ) {
                             self.constraints[k] = c.0;
@@ -2085,16 +2130,21 @@ impl Implicit {
                     Constraint::Free => {
                         let x = state.x.get(k);
                         let to = x + self.v.get(k) * dt;
-                        if let Some((c, through)) = landing_constraint(model, k, x, to, dt) {
+                        if let Some((c, through)) = landing_constraint(model, &surfaces, k, x, to, dt) {
                             self.constraints[k] = self.landing_friction(k, c);
                             self.precondition_one(k);
                             self.landed[k] = through;
                             changed = true;
                         }
                     }
-                    Constraint::Stick { n: normal, vn, mu } => {
+                    Constraint::Stick {
+                        n: normal,
+                        vn,
+                        mu,
+                        u,
+                    } => {
                         // Inside the friction cone, or sliding, or pulling free.
-                        if let Some(c) = self.held_change(k, (normal, vn, mu), state, dt) {
+                        if let Some(c) = self.held_change(k, (normal, vn, mu, u), state, dt) {
                             self.constraints[k] = c;
                             self.precondition_one(k);
                             changed = true;
@@ -2202,6 +2252,9 @@ impl Implicit {
         // The thesis' bubble's volume change over the step, m^3 (its pressure below).
         let bubble = matches!(air.model, crate::air::AirModel::Thesis(_));
         let mut volume_change = 0.0;
+        // The moving colliders' work on the cloth over the step, J (magnitudes summed, as the
+        // explicit integrator's).
+        let mut surface_work = 0.0;
         for k in 0..n {
             let x = state.x.get(k);
             let v = self.v.get(k);
@@ -2210,7 +2263,16 @@ impl Implicit {
                 self.constraints[k]
             {
                 // Touching while the surface pushes.
-                touched = (self.av.get(k) - self.rhs.get(k)).dot(normal) > 0.0;
+                let lambda = self.av.get(k) - self.rhs.get(k);
+                touched = lambda.dot(normal) > 0.0;
+                // A moving surface works on the cloth it pushes and carries: the contact's
+                // impulse (N s) times the surface's velocity (m/s).
+                if let Constraint::Normal { u, .. } | Constraint::Stick { u, .. } =
+                    self.constraints[k]
+                    && u != Vec3::ZERO
+                {
+                    surface_work += lambda.dot(u).abs();
+                }
             }
             let mut to = x + v * dt;
             if let Constraint::Fixed(_) = self.constraints[k] {
@@ -2228,8 +2290,14 @@ impl Implicit {
                     );
                 if !settled {
                     let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
-                    let (p, hit) =
-                        contact::resolve_scaled(&model.colliders, x, to, model.radius, scale);
+                    let (p, hit) = if surfaces.is_empty() {
+                        contact::resolve_scaled(&model.colliders, x, to, model.radius, scale)
+                    } else {
+                        let (p, hit, w) =
+                            resolve_surfaces(&surfaces, x, to, model, k, scale, dt * dt);
+                        surface_work += w;
+                        (p, hit)
+                    };
                     to = p;
                     touched |= hit;
                 }
@@ -2255,6 +2323,8 @@ impl Implicit {
             prev.set(k, to);
         }
         std::mem::swap(prev, &mut state.x);
+        control.collider_work += surface_work;
+        self.surfaces = surfaces;
         // The pressure the step applied: the gas spring's, linearised at the end of the step.
         if let crate::air::AirModel::Thesis(b) = air.model
             && control.air_enabled
@@ -2413,7 +2483,11 @@ enum Which {
 /// A slide (contact normal, normal velocity, friction coefficient) that friction stopped
 /// within the step, its kinetic impulse `kinetic` (N s), at the tangential speed `speed` (m/s):
 /// a drag-only slide (see [`Constraint::Normal`]), its drag giving that impulse at that speed.
-fn stopped_slide(n: Vec3, vn: Real, mu: Real, kinetic: Real, speed: Real) -> Constraint {
+fn stopped_slide(
+    (n, vn, mu, u): (Vec3, Real, Real, Vec3),
+    kinetic: Real,
+    speed: Real,
+) -> Constraint {
     Constraint::Normal {
         n,
         vn,
@@ -2421,14 +2495,127 @@ fn stopped_slide(n: Vec3, vn: Real, mu: Real, kinetic: Real, speed: Real) -> Con
         drag: kinetic / speed.max(SLIDE_EPSILON),
         t: Vec3::ZERO,
         kinetic: 0.0,
+        u,
+    }
+}
+
+/// A collider as one step's contacts see it: where it is at the step's start (the collider
+/// itself if still) and, if it moves, where it is at both ends of the step.
+#[derive(Clone, Debug)]
+struct Surface {
+    collider: Collider,
+    frames: Option<Frames>,
+}
+
+impl Surface {
+    /// The colliders of `model` over the step from `t` to `t + dt` (s); empty where none moves
+    /// (the contacts then read `model.colliders` as they are).
+    fn of_step(model: &Model, t: Real, dt: Real, out: &mut Vec<Surface>) {
+        out.clear();
+        if model.moving.is_empty() {
+            return;
+        }
+        out.extend(model.colliders.iter().map(|c| Surface {
+            collider: c.at(t),
+            frames: c.is_moving().then(|| Frames::of(c, t, dt)),
+        }));
+    }
+
+    /// The velocity (m/s) over the step of `dt` s of the surface point at `x` (zero if still).
+    fn velocity(&self, x: Vec3, dt: Real) -> Vec3 {
+        match &self.frames {
+            Some(f) => (f.end.to_world(f.start.to_rest(x)) - x) / dt,
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// The contact query of a particle moving from `x` to `to` over the step: in the moving
+    /// frame for a moving collider (see [`contact::resolve_moving`]), the normal in the world
+    /// at the step's end.
+    fn contact(&self, x: Vec3, to: Vec3, radius: Real) -> Option<(Real, Vec3)> {
+        match &self.frames {
+            Some(f) => {
+                let (d, n) =
+                    self.collider
+                        .rest_contact(f.start.to_rest(x), f.end.to_rest(to), radius)?;
+                Some((d, f.end.dir_to_world(n)))
+            }
+            None => self.collider.contact(x, to, radius),
+        }
+    }
+}
+
+/// [`contact::resolve_scaled`] against the colliders of a step with moving ones: each in turn,
+/// a moving one in its moving frame ([`contact::resolve_moving`]) for particle `k` over a step
+/// whose forces move it by `F dt2 / m`. Returns the corrected end of the move from `x` to
+/// `to`, whether it touched, and the moving colliders' work on it (J, magnitude).
+fn resolve_surfaces(
+    surfaces: &[Surface],
+    x: Vec3,
+    mut to: Vec3,
+    model: &Model,
+    k: usize,
+    scale: Real,
+    dt2: Real,
+) -> (Vec3, bool, Real) {
+    let mut touched = false;
+    let mut work = 0.0;
+    for s in surfaces {
+        let (p, hit) = match &s.frames {
+            Some(f) => {
+                let (p, hit, w) = contact::resolve_moving(
+                    &s.collider,
+                    f,
+                    x,
+                    to,
+                    model.radius,
+                    scale,
+                    model.mass(k),
+                    dt2,
+                );
+                work += w.abs();
+                (p, hit)
+            }
+            None => {
+                contact::resolve_scaled(std::slice::from_ref(&s.collider), x, to, model.radius, scale)
+            }
+        };
+        to = p;
+        touched |= hit;
+    }
+    (to, touched, work)
+}
+
+/// Calls `each` with every collider of the step (`surfaces`, or the model's own when none
+/// moves) and its surface velocity at `x` (m/s).
+#[inline]
+fn each_surface(
+    model: &Model,
+    surfaces: &[Surface],
+    x: Vec3,
+    dt: Real,
+    mut each: impl FnMut(&Collider, Option<&Surface>, Vec3),
+) {
+    if surfaces.is_empty() {
+        for c in &model.colliders {
+            each(c, None, Vec3::ZERO);
+        }
+    } else {
+        for s in surfaces {
+            each(&s.collider, Some(s), s.velocity(x, dt));
+        }
     }
 }
 
 /// The contact constraint of particle `k` at `x` moving at `v` (m/s) over a step of `dt` s:
 /// against the collider it is nearest to penetrating, if it touches one (`touching` last
-/// step, within its radius plus a 1 % skin) or would reach it at its current speed.
+/// step, within its radius plus a 1 % skin) or would reach it at its current speed relative
+/// to the surface. On a moving collider the constraint moves with the surface: its normal
+/// velocity lands the particle on the surface where the surface is at the step's end, and
+/// static friction holds it to the surface's tangential velocity.
 fn contact_constraint(
     model: &Model,
+    surfaces: &[Surface],
     k: usize,
     x: Vec3,
     v: Vec3,
@@ -2438,21 +2625,38 @@ fn contact_constraint(
     let mut best = Constraint::Free;
     let mut nearest = Real::INFINITY;
     let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
-    for c in &model.colliders {
+    each_surface(model, surfaces, x, dt, |c, _, u| {
         let (d, n) = c.distance(x);
         let gap = d - model.radius;
         let skin = if touching { 0.01 * model.radius } else { 0.0 };
-        let reach = (-v.dot(n)).max(0.0) * dt;
+        let reach = (-(v - u).dot(n)).max(0.0) * dt;
         if gap <= skin.max(reach) && gap < nearest {
             nearest = gap;
-            best = Constraint::Stick {
-                n,
-                vn: -gap / dt,
-                mu: c.friction * scale,
-            };
+            best = stick(n, gap, dt, c.friction * scale, u);
+        }
+    });
+    best
+}
+
+/// A contact held by static friction against a surface of normal `n` moving at `u` (m/s),
+/// `gap` (m) away at the step's start, friction coefficient `mu`.
+#[inline]
+fn stick(n: Vec3, gap: Real, dt: Real, mu: Real, u: Vec3) -> Constraint {
+    if u == Vec3::ZERO {
+        Constraint::Stick {
+            n,
+            vn: -gap / dt,
+            mu,
+            u,
+        }
+    } else {
+        Constraint::Stick {
+            n,
+            vn: n.dot(u) - gap / dt,
+            mu,
+            u,
         }
     }
-    best
 }
 
 /// The contact constraint of a free particle moving from `x` to `to` in a step of `dt` s, if it
@@ -2460,6 +2664,7 @@ fn contact_constraint(
 /// within its radius of it).
 fn landing_constraint(
     model: &Model,
+    surfaces: &[Surface],
     k: usize,
     x: Vec3,
     to: Vec3,
@@ -2468,24 +2673,23 @@ fn landing_constraint(
     let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
     let mut best = None;
     let mut deepest = 0.0;
-    for c in &model.colliders {
+    each_surface(model, surfaces, x, dt, |c, surface, u| {
         // Measured on the side the particle comes from: an open mesh (a two-sided sheet, whose
         // plain distance has no inside) stops a particle driven through it as a plane does.
-        let Some((d, n)) = c.contact(x, to, model.radius) else {
-            continue;
+        let hit = match surface {
+            Some(s) => s.contact(x, to, model.radius),
+            None => c.contact(x, to, model.radius),
+        };
+        let Some((d, n)) = hit else {
+            return;
         };
         let depth = model.radius - d;
         if depth > deepest {
             deepest = depth;
             let gap = c.distance(x).0 - model.radius;
-            let stick = Constraint::Stick {
-                n,
-                vn: -gap / dt,
-                mu: c.friction * scale,
-            };
-            best = Some((stick, d < 0.0));
+            best = Some((stick(n, gap, dt, c.friction * scale, u), d < 0.0));
         }
-    }
+    });
     best
 }
 

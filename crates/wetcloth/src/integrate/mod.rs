@@ -48,6 +48,9 @@ pub(crate) struct Fused<'a> {
     pub measures: &'a mut Measures,
     /// Rows per task when the pass is split over the thread pool, `None` on the calling thread.
     pub rows_per_task: Option<usize>,
+    /// The time at the step's start, s: where the moving colliders are (the implicit
+    /// integrator's; the explicit one counts its steps).
+    pub start: Real,
 }
 
 /// An integrator and its scratch.
