@@ -303,15 +303,26 @@ fn moving_colliders_carry_the_cloth_under_every_integrator() {
                 "{name}, particle {k}: moved {moved}, plate {}",
                 v * t
             );
-            assert!(moved.y.abs() < 1e-6 && moved.z.abs() < 1e-9, "{name}, {k}: {moved}");
-            assert!((vel.get(k).x - v).abs() < 1e-6 * v, "{name}, {k}: {}", vel.get(k));
+            assert!(
+                moved.y.abs() < 1e-6 && moved.z.abs() < 1e-9,
+                "{name}, {k}: {moved}"
+            );
+            assert!(
+                (vel.get(k).x - v).abs() < 1e-6 * v,
+                "{name}, {k}: {}",
+                vel.get(k)
+            );
             assert!(sim.state().contact[k], "{name}, {k} touches");
             mean += moved.x / start.len() as Real;
         }
-        assert!(sim.control().collider_work() > 0.0, "{name}: the plate worked");
+        assert!(
+            sim.control().collider_work() > 0.0,
+            "{name}: the plate worked"
+        );
         rides.push(mean);
         // The lifted box: 10 cm in 0.5 s, then held; the cloth (8 cm) rests on its 20 cm top.
-        let mut table = Collider::cuboid(Vec3::new(0.0, -0.05, 0.0), Vec3::new(0.1, 0.05, 0.1), 0.6);
+        let mut table =
+            Collider::cuboid(Vec3::new(0.0, -0.05, 0.0), Vec3::new(0.1, 0.05, 0.1), 0.6);
         table.keys = keys([0.0, 0.5].into_iter(), |t| Vec3::new(0.0, 0.2 * t, 0.0));
         let mut cfg = dry(8, 0.08, Vec3::new(0.0, r, 0.0), vec![table]);
         cfg.simulation.integrator = integrator;
@@ -320,7 +331,10 @@ fn moving_colliders_carry_the_cloth_under_every_integrator() {
         steps(&mut sim, (0.7 / dt).round() as usize);
         let top = 0.1 + r;
         for (k, y) in sim.positions().y.iter().enumerate() {
-            assert!((y - top).abs() < 1e-4, "{name}, particle {k} at {y}, the top at {top}");
+            assert!(
+                (y - top).abs() < 1e-4,
+                "{name}, particle {k} at {y}, the top at {top}"
+            );
         }
         lifts.push(sim.positions().y.iter().sum::<Real>() / sim.positions().len() as Real);
     }

@@ -650,11 +650,31 @@ fn friction_holds_and_slides_at_large_steps() {
     let theta: Real = 20f64.to_radians();
     let g = 9.8;
     let runs = [
-        (wetcloth::Integrator::Verlet, 12000.0, wetcloth::SolveBudget::Converged),
-        (wetcloth::Integrator::Implicit, 600.0, wetcloth::SolveBudget::Converged),
-        (wetcloth::Integrator::Implicit, 120.0, wetcloth::SolveBudget::Converged),
-        (wetcloth::Integrator::Implicit, 600.0, wetcloth::SolveBudget::Interactive),
-        (wetcloth::Integrator::Implicit, 120.0, wetcloth::SolveBudget::Interactive),
+        (
+            wetcloth::Integrator::Verlet,
+            12000.0,
+            wetcloth::SolveBudget::Converged,
+        ),
+        (
+            wetcloth::Integrator::Implicit,
+            600.0,
+            wetcloth::SolveBudget::Converged,
+        ),
+        (
+            wetcloth::Integrator::Implicit,
+            120.0,
+            wetcloth::SolveBudget::Converged,
+        ),
+        (
+            wetcloth::Integrator::Implicit,
+            600.0,
+            wetcloth::SolveBudget::Interactive,
+        ),
+        (
+            wetcloth::Integrator::Implicit,
+            120.0,
+            wetcloth::SolveBudget::Interactive,
+        ),
     ];
     for (integrator, rate, budget) in runs {
         for mu in [0.2, 0.5] {
