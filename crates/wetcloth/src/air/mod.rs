@@ -19,6 +19,7 @@ pub mod gap;
 pub mod leak;
 pub mod pockets;
 pub(crate) mod region;
+pub(crate) mod solve;
 
 pub use boyle::{MIN_GAP, boyle_pressure};
 pub use bubble::Bubble;

@@ -14,6 +14,96 @@ thread_local! {
     pub(super) static KEPT_PRODUCTS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
 }
 
+/// Work the implicit step keeps from one step or solve to the next, every piece with the bits
+/// the whole computation would give, and the flags that say what is still current. Only
+/// [`Kept::notify`] clears them: a change names what happened, and the one place below decides
+/// which kept work it makes stale.
+#[derive(Clone, Debug, Default)]
+pub(super) struct Kept {
+    /// `A v` of the last solve's `v` (`q` is the conjugate gradient's scratch): each
+    /// contact's and hand's impulse is read from it. `av_of` is the `v` it was computed from
+    /// while `av_fresh` holds (the matrix unchanged since but for the rows in `av_rows`, whose
+    /// constraints changed); then only the rows around the particles whose velocity moved are
+    /// computed again ([`Implicit::apply_v`]). `row_mark` and `row_stamp` mark the rows taken
+    /// there and in [`Implicit::precondition`] ([`Implicit::next_stamp`]).
+    pub(super) av: Soa,
+    pub(super) av_of: Soa,
+    pub(super) av_fresh: bool,
+    /// The `dt^2` (s^2) of the matrix `av` was taken with, and whether no gas spring acted in
+    /// it: a step of the same size without gas springs keeps `av` ([`Implicit::keep_product`]).
+    pub(super) av_dt2: Real,
+    pub(super) av_gas_free: bool,
+    pub(super) av_rows: Vec<u32>,
+    pub(super) row_mark: Vec<u32>,
+    pub(super) row_stamp: u32,
+    /// The positions the springs were last linearised at, while `lin_fresh` holds (no spring
+    /// was put on its stiff branch since): a spring neither of whose particles moved keeps its
+    /// linearisation ([`Implicit::forces`]). `lin_moved` marks the particles that moved.
+    pub(super) lin_x: Soa,
+    pub(super) lin_fresh: bool,
+    pub(super) lin_moved: Vec<bool>,
+    /// Each particle's sum of its springs' diagonal blocks (N/m), and whether the next
+    /// [`Implicit::precondition`] may take it again only around the particles that moved (the
+    /// last `forces` kept the other springs).
+    pub(super) diag_springs: Soa,
+    pub(super) diag_kept: bool,
+    /// Whether the multigrid hierarchy (and the gas springs' correction) was built from the
+    /// matrix as it is: no constraint, spring or step changed since. A solve that only moved the
+    /// bubble's pressure (the right-hand side) reuses it.
+    pub(super) mg_built: bool,
+}
+
+/// What happened to the implicit step's system, for [`Kept::notify`].
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Change {
+    /// The springs were linearised for a new step; `kept_springs` where those whose particles
+    /// did not move kept their linearisation (and with it their share of the diagonal).
+    Linearised { kept_springs: bool },
+    /// The matrix's diagonal was taken anew (a new step, or springs past the strain limit):
+    /// the product `A v` is stale.
+    Matrix,
+    /// Particle `k`'s constraint (and with it its row's drag) changed.
+    Row(usize),
+    /// Springs went onto their strain limit's stiff branch: the next step linearises all anew.
+    Stiffened,
+    /// The multigrid hierarchy was built from the matrix as it is.
+    MultigridBuilt,
+}
+
+impl Kept {
+    /// Nothing kept yet, for `n` particles.
+    pub(super) fn new(n: usize) -> Self {
+        Self {
+            av: Soa::zeros(n),
+            av_of: Soa::zeros(n),
+            row_mark: vec![0; n],
+            lin_x: Soa::zeros(n),
+            lin_moved: vec![true; n],
+            diag_springs: Soa::zeros(n),
+            ..Default::default()
+        }
+    }
+
+    /// Records `change`, marking stale what it invalidates.
+    pub(super) fn notify(&mut self, change: Change) {
+        match change {
+            Change::Linearised { kept_springs } => {
+                self.diag_kept = kept_springs;
+                self.lin_fresh = true;
+            }
+            Change::Matrix => self.av_fresh = false,
+            Change::Row(k) => {
+                self.mg_built = false;
+                if self.av_fresh {
+                    self.av_rows.push(k as u32);
+                }
+            }
+            Change::Stiffened => self.lin_fresh = false,
+            Change::MultigridBuilt => self.mg_built = true,
+        }
+    }
+}
+
 /// Calls `f` on every particle of the 3 x 3 block around particle `k` of an `nx` x `nz` grid
 /// (the rows a change at `k` reaches through the 9-point stencil) that `mark` does not yet hold
 /// at `stamp`, and marks it.
@@ -94,12 +184,12 @@ impl Implicit {
     /// A stamp no row of `row_mark` holds yet (the marks of earlier passes then read as
     /// unmarked).
     pub(super) fn next_stamp(&mut self) -> u32 {
-        self.row_stamp = self.row_stamp.wrapping_add(1);
-        if self.row_stamp == 0 {
-            self.row_mark.fill(0);
-            self.row_stamp = 1;
+        self.kept.row_stamp = self.kept.row_stamp.wrapping_add(1);
+        if self.kept.row_stamp == 0 {
+            self.kept.row_mark.fill(0);
+            self.kept.row_stamp = 1;
         }
-        self.row_stamp
+        self.kept.row_stamp
     }
 
     /// `av = A v`. Without gas springs (whose rank-one terms couple every particle of a
@@ -112,47 +202,47 @@ impl Implicit {
     pub(super) fn apply_v(&mut self, sys: &System<'_>) {
         let (nx, nz) = (sys.nx, sys.nz);
         let n = nx * nz;
-        if self.av_fresh && self.gas.iter().all(|&g| g == 0.0) {
+        if self.kept.av_fresh && self.gas.iter().all(|&g| g == 0.0) {
             let mut moved = 0;
             let stamp = self.next_stamp();
-            let mut rows = std::mem::take(&mut self.av_rows);
+            let mut rows = std::mem::take(&mut self.kept.av_rows);
             for &k in &rows {
-                self.row_mark[k as usize] = stamp;
+                self.kept.row_mark[k as usize] = stamp;
             }
             for k in 0..n {
-                if same_bits(self.v.get(k), self.av_of.get(k)) {
+                if same_bits(self.v.get(k), self.kept.av_of.get(k)) {
                     continue;
                 }
                 moved += 1;
                 if 8 * moved > n {
                     break;
                 }
-                each_new_neighbour(nx, nz, k, &mut self.row_mark, stamp, |m| {
+                each_new_neighbour(nx, nz, k, &mut self.kept.row_mark, stamp, |m| {
                     rows.push(m as u32)
                 });
-                self.av_of.set(k, self.v.get(k));
+                self.kept.av_of.set(k, self.v.get(k));
             }
             if 8 * moved <= n {
                 for &m in &rows {
                     let y = self.row_exact(sys, m as usize);
-                    self.av.set(m as usize, y);
+                    self.kept.av.set(m as usize, y);
                 }
                 rows.clear();
-                self.av_rows = rows;
+                self.kept.av_rows = rows;
                 #[cfg(test)]
                 self.check_partial_product(sys);
                 return;
             }
             rows.clear();
-            self.av_rows = rows;
+            self.kept.av_rows = rows;
         }
         self.apply(sys, Which::V, None);
-        std::mem::swap(&mut self.q, &mut self.av);
-        self.av_of.clone_from(&self.v);
-        self.av_rows.clear();
-        self.av_fresh = true;
-        self.av_dt2 = sys.dt2;
-        self.av_gas_free = self.gas.iter().all(|&g| g == 0.0);
+        std::mem::swap(&mut self.q, &mut self.kept.av);
+        self.kept.av_of.clone_from(&self.v);
+        self.kept.av_rows.clear();
+        self.kept.av_fresh = true;
+        self.kept.av_dt2 = sys.dt2;
+        self.kept.av_gas_free = self.gas.iter().all(|&g| g == 0.0);
     }
 
     /// At a step's start, after [`Implicit::precondition`]: keeps the last step's product
@@ -165,16 +255,20 @@ impl Implicit {
     /// instead of the whole grid.
     pub(super) fn keep_product(&mut self, sys: &System<'_>, fresh: bool) {
         let gas_free = self.gas.iter().all(|&g| g == 0.0);
-        if !(fresh && gas_free && self.av_gas_free && sys.dt2.to_bits() == self.av_dt2.to_bits()) {
+        if !(fresh
+            && gas_free
+            && self.kept.av_gas_free
+            && sys.dt2.to_bits() == self.kept.av_dt2.to_bits())
+        {
             return;
         }
         let (nx, nz) = (sys.nx, sys.nz);
         let n = nx * nz;
         let stamp = self.next_stamp();
-        let mut mark = std::mem::take(&mut self.row_mark);
-        let mut rows = std::mem::take(&mut self.av_rows);
+        let mut mark = std::mem::take(&mut self.kept.row_mark);
+        let mut rows = std::mem::take(&mut self.kept.av_rows);
         rows.clear();
-        for k in (0..n).filter(|&k| self.lin_moved[k]) {
+        for k in (0..n).filter(|&k| self.kept.lin_moved[k]) {
             each_new_neighbour(nx, nz, k, &mut mark, stamp, |m| rows.push(m as u32));
         }
         for k in 0..n {
@@ -183,17 +277,17 @@ impl Implicit {
                 rows.push(k as u32);
             }
         }
-        self.row_mark = mark;
+        self.kept.row_mark = mark;
         // Where many rows changed the whole product is as cheap.
-        self.av_fresh = 8 * rows.len() <= n;
-        if !self.av_fresh {
+        self.kept.av_fresh = 8 * rows.len() <= n;
+        if !self.kept.av_fresh {
             rows.clear();
         }
         #[cfg(test)]
-        if self.av_fresh {
+        if self.kept.av_fresh {
             KEPT_PRODUCTS.with(|c| c.set(c.get() + 1));
         }
-        self.av_rows = rows;
+        self.kept.av_rows = rows;
     }
 
     /// In the unit tests: the partial product just taken has the bits of the whole one.
@@ -202,9 +296,9 @@ impl Implicit {
         self.apply(sys, Which::V, None);
         for k in 0..self.v.len() {
             assert!(
-                same_bits(self.q.get(k), self.av.get(k)),
+                same_bits(self.q.get(k), self.kept.av.get(k)),
                 "row {k}: partial {} whole {}",
-                self.av.get(k),
+                self.kept.av.get(k),
                 self.q.get(k)
             );
         }

@@ -393,7 +393,7 @@ impl Implicit {
         state: &State,
         dt: Real,
     ) -> Option<Constraint> {
-        let lambda = self.av.get(k) - self.rhs.get(k);
+        let lambda = self.kept.av.get(k) - self.rhs.get(k);
         let push = lambda.dot(n);
         let shear = (lambda - n * push).length();
         if push < 0.0 {
@@ -529,6 +529,83 @@ impl Implicit {
         Some((c, moved))
     }
 
+    /// After a solve of the contact passes: contacts that pull go free, slides follow their
+    /// speed ([`Implicit::slide_change`]), particles that would land inside a collider are
+    /// constrained ([`landing_constraint`], marked in `landed` where they went through its
+    /// surface), held ones outside the friction cone slide ([`Implicit::held_change`]).
+    /// Returns whether the contact set changed enough to solve again.
+    pub(super) fn update_contacts(
+        &mut self,
+        model: &Model,
+        state: &State,
+        surfaces: &[Surface],
+        dt: Real,
+    ) -> bool {
+        let n = state.len();
+        let mut changed = false;
+        self.landed.clear();
+        self.landed.resize(n, false);
+        for k in 0..n {
+            let c = self.constraints[k];
+            match c {
+                Constraint::Normal {
+                    n: normal,
+                    vn,
+                    mu,
+                    drag,
+                    t,
+                    kinetic,
+                    u,
+                } => {
+                    // The normal impulse: the residual's normal part (friction is tangential).
+                    let v = self.v.get(k);
+                    let lambda = self.kept.av.get(k) - self.rhs.get(k);
+                    let push = lambda.dot(normal);
+                    if push < 0.0 {
+                        self.constraints[k] = Constraint::Free;
+                        self.precondition_one(k);
+                        changed = true;
+                    } else if let Some(c) = self.slide_change(
+                        k,
+                        (normal, vn, mu, u),
+                        (drag, t, kinetic),
+                        c.slip(v),
+                        push,
+                    ) {
+                        self.constraints[k] = c.0;
+                        self.precondition_one(k);
+                        changed |= c.1;
+                    }
+                }
+                Constraint::Free => {
+                    let x = state.x.get(k);
+                    let to = x + self.v.get(k) * dt;
+                    if let Some((c, through)) = landing_constraint(model, surfaces, k, x, to, dt) {
+                        self.constraints[k] = self.landing_friction(k, c);
+                        self.precondition_one(k);
+                        self.landed[k] = through;
+                        changed = true;
+                    }
+                }
+                Constraint::Stick {
+                    n: normal,
+                    vn,
+                    mu,
+                    u,
+                } => {
+                    // Inside the friction cone, or sliding, or pulling free.
+                    if let Some(c) = self.held_change(k, (normal, vn, mu, u), state, dt) {
+                        self.constraints[k] = c;
+                        self.precondition_one(k);
+                        changed = true;
+                    }
+                }
+                Constraint::Fixed(_) => {}
+            }
+        }
+        changed
+    }
+
     /// After the step's last solve: every slide that it moved against its direction (whose
     /// friction would push it on) becomes a drag-only slide. Returns whether any did.
     pub(super) fn stop_reversed_slides(&mut self) -> bool {
@@ -562,7 +639,7 @@ impl Implicit {
     pub(super) fn recheck_contacts(&mut self, state: &State, dt: Real) -> bool {
         let mut changed = false;
         for k in 0..self.constraints.len() {
-            let lambda = self.av.get(k) - self.rhs.get(k);
+            let lambda = self.kept.av.get(k) - self.rhs.get(k);
             match self.constraints[k] {
                 Constraint::Normal { n, .. } if lambda.dot(n) < 0.0 => {
                     self.constraints[k] = Constraint::Free;

@@ -52,9 +52,9 @@
 //! Every sum (the dot products of the gradient, the regions' dot products) runs over the
 //! particles in index order, so the result does not depend on the thread count.
 
-mod air_share;
 mod caches;
 mod contacts;
+mod gas;
 mod matrix;
 mod solver;
 mod springs;
@@ -62,8 +62,8 @@ mod strain;
 
 use super::multigrid::{CENTRE, Multigrid, cholesky, cholesky_solve, neighbours, slot};
 use super::{Air, Fused};
-use crate::air::Timing;
 use crate::air::region::Regions;
+use crate::air::solve::{PRESSURE_PASSES, SolveShare};
 use crate::checks;
 use crate::collide::Collider;
 use crate::collide::contact::{self, Frames};
@@ -73,9 +73,9 @@ use crate::math::{Real, RowMut, Soa, Vec3, row};
 use crate::model::Model;
 use crate::params::{PressureForce, SolveBudget};
 use crate::state::{Motion, Slide, State};
-use air_share::*;
 use caches::*;
 use contacts::*;
+use gas::*;
 use glam::DMat3;
 use matrix::*;
 use springs::*;
@@ -126,16 +126,8 @@ pub(crate) struct Implicit {
     /// Per particle: whether the solve just taken drove it through a collider's surface (its
     /// end-of-step position is then no guide to its springs' stretch).
     landed: Vec<bool>,
-    /// Per particle: the pressure difference (Pa) of the pockets of air around it that its
-    /// right-hand side holds so far this step, as a sealed particle on their rims
-    /// ([`Implicit::rim_pressures`]); with `rim_target` the one the last solve asks for.
-    rim_applied: Vec<Real>,
-    rim_target: Vec<Real>,
-    /// Per region, the difference to the atmosphere (Pa) of the end-of-step pressure the last
-    /// solve found.
-    end_pressure: Vec<Real>,
-    /// End-of-step positions of the current velocities (for the bubble's volume).
-    end: Soa,
+    /// The air's share of the solve (the bubble's pressure correction, the pockets' rims).
+    air: SolveShare,
     /// The air's regions.
     regions: Regions,
     /// Each region's gas-spring term `dt^2 k_r`, and scratch for its dot product.
@@ -158,49 +150,15 @@ pub(crate) struct Implicit {
     inv_diag: Soa,
     diag_base: Soa,
     /// The multigrid preconditioner (when in use) and, for the gas springs, the low-rank
-    /// correction of its inverse (Woodbury): `w_r = V u_r` for each gas region's filtered
-    /// pressure gradient `u_r`, and the Cholesky factor of `C^-1 + U^T V U`.
+    /// correction of its inverse ([`Woodbury`]).
     mg: Multigrid,
     use_multigrid: bool,
-    /// Whether `mg` (and the gas springs' correction) was built from the matrix as it is: no
-    /// constraint, spring or step changed since. A solve that only moved the bubble's pressure
-    /// (the right-hand side) reuses it.
-    mg_built: bool,
-    /// The corrected regions (indices into `regions.list`), and scratch for `G^-1 W^T r`.
-    gas_regions: Vec<usize>,
-    gas_u: Vec<Soa>,
-    gas_w: Vec<Soa>,
-    gas_chol: Vec<Real>,
-    gas_y: Vec<Real>,
-    /// `A v` of the last solve's `v` (`q` is the conjugate gradient's scratch): each
-    /// contact's and hand's impulse is read from it. `av_of` is the `v` it was computed from
-    /// while `av_fresh` holds (the matrix unchanged since but for the rows in `av_rows`, whose
-    /// constraints changed); then only the rows around the particles whose velocity moved are
-    /// computed again ([`Implicit::apply_v`]). `row_mark` and `row_stamp` mark the rows taken
-    /// there and in [`Implicit::precondition`] ([`Implicit::next_stamp`]).
-    av: Soa,
-    av_of: Soa,
-    av_fresh: bool,
-    /// The `dt^2` (s^2) of the matrix `av` was taken with, and whether no gas spring acted in
-    /// it: a step of the same size without gas springs keeps `av` ([`Implicit::keep_product`]).
-    av_dt2: Real,
-    av_gas_free: bool,
+    woodbury: Woodbury,
     /// The last step's final constraints (those of its last product), beside this step's.
     prev_constraints: Vec<Constraint>,
-    av_rows: Vec<u32>,
-    row_mark: Vec<u32>,
-    row_stamp: u32,
-    /// The positions the springs were last linearised at, while `lin_fresh` holds (no spring
-    /// was put on its stiff branch since): a spring neither of whose particles moved keeps its
-    /// linearisation ([`Implicit::forces`]). `lin_moved` marks the particles that moved.
-    lin_x: Soa,
-    lin_fresh: bool,
-    lin_moved: Vec<bool>,
-    /// Each particle's sum of its springs' diagonal blocks (N/m), and whether the next
-    /// [`Implicit::precondition`] may take it again only around the particles that moved (the
-    /// last `forces` kept the other springs).
-    diag_springs: Soa,
-    diag_kept: bool,
+    /// Work kept from step to step and solve to solve with the bits of the whole computation,
+    /// and what invalidates it ([`Kept::notify`]).
+    kept: Kept,
     /// Conjugate-gradient iterations of the last step (all solves), and of every step since
     /// this scratch was made.
     pub iterations: usize,
@@ -229,10 +187,7 @@ impl Implicit {
             force: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
             landed: vec![false; n],
-            rim_applied: vec![0.0; n],
-            rim_target: vec![0.0; n],
-            end_pressure: Vec::new(),
-            end: Soa::zeros(n),
+            air: SolveShare::new(n),
             regions: Regions::default(),
             gas: Vec::new(),
             dots: Vec::new(),
@@ -249,26 +204,9 @@ impl Implicit {
             diag_base: Soa::zeros(n),
             mg: Multigrid::default(),
             use_multigrid: false,
-            mg_built: false,
-            gas_regions: Vec::new(),
-            gas_u: Vec::new(),
-            gas_w: Vec::new(),
-            gas_chol: Vec::new(),
-            gas_y: Vec::new(),
-            av: Soa::zeros(n),
-            av_of: Soa::zeros(n),
-            av_fresh: false,
-            av_dt2: 0.0,
-            av_gas_free: false,
+            woodbury: Woodbury::default(),
             prev_constraints: vec![Constraint::Free; n],
-            av_rows: Vec::new(),
-            row_mark: vec![0; n],
-            row_stamp: 0,
-            lin_x: Soa::zeros(n),
-            lin_fresh: false,
-            lin_moved: vec![true; n],
-            diag_springs: Soa::zeros(n),
-            diag_kept: false,
+            kept: Kept::new(n),
             iterations: 0,
             total_iterations: 0,
             budget,
@@ -295,31 +233,28 @@ impl Implicit {
                 &self.q,
                 &self.inv_diag,
                 &self.diag_base,
-                &self.end,
-                &self.av,
-                &self.av_of,
-                &self.lin_x,
-                &self.diag_springs,
+                &self.kept.av,
+                &self.kept.av_of,
+                &self.kept.lin_x,
+                &self.kept.diag_springs,
             ]
             .iter()
             .map(|s| s.heap_bytes())
             .sum::<usize>()
             + self.mg.heap_bytes()
-            + self.gas_w.iter().map(|s| s.heap_bytes()).sum::<usize>()
-            + self.gas_u.iter().map(|s| s.heap_bytes()).sum::<usize>()
+            + self.woodbury.heap_bytes()
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
             + self.inertia.capacity() * 8
             + self.landed.capacity()
-            + (self.rim_applied.capacity() + self.rim_target.capacity()) * 8
-            + self.end_pressure.capacity() * 8
-            + (self.av_rows.capacity() + self.row_mark.capacity()) * 4
+            + self.air.heap_bytes()
+            + (self.kept.av_rows.capacity() + self.kept.row_mark.capacity()) * 4
             + self.prev_constraints.capacity() * std::mem::size_of::<Constraint>()
-            + self.lin_moved.capacity()
+            + self.kept.lin_moved.capacity()
             + self.runs.len() * std::mem::size_of::<Run>()
     }
 
-    /// One step of `dt` s (see the module docs). Returns the largest squared distance (m^2) of
-    /// a new position of a particle no hand holds from `fused.reference`.
+    /// One step of `dt` s (see the module docs), as its phases. Returns the largest squared
+    /// distance (m^2) of a new position of a particle no hand holds from `fused.reference`.
     pub fn step(
         &mut self,
         model: &Model,
@@ -330,29 +265,92 @@ impl Implicit {
         fused: Fused<'_>,
     ) -> Real {
         state.use_previous_positions(dt);
-        let n = state.len();
-        let (nx, nz) = (model.grid.nx, model.grid.nz);
-        // The air as regions; a pressure known now (explicit) is no gas spring in the solve.
+        self.begin_air(model, state, control, &air, dt);
+        self.forces(model, &state.x);
+        let surfaces = self.place_colliders(model, fused.start, dt);
+        self.right_hand_side(model, state, dt);
+        self.constrain(model, state, control, &surfaces, dt);
+        // `System` borrows the regions; the rest of `self` is used mutably below.
+        let regions = std::mem::take(&mut self.regions);
+        let sys = System {
+            nx: model.grid.nx,
+            nz: model.grid.nz,
+            dt2: dt * dt,
+            regions: &regions,
+        };
+        self.prepare_matrix(&sys);
+        self.air.start(
+            model,
+            &regions,
+            &state.x,
+            &self.v,
+            &self.per_pascal,
+            &mut self.rhs,
+            dt,
+        );
+        let budget = Budget::of(self.budget);
+        self.solve_contacts(&sys, model, state, &surfaces, dt, budget);
+        let shifted = self.solve_pressure(&sys, model, state, dt, budget);
+        self.settle_contacts(&sys, model, state, dt, budget, shifted);
+        self.total_iterations += self.iterations as u64;
+        self.regions = regions;
+        self.hand_forces(state, control, dt);
+        let (moved, volume_change) =
+            self.move_particles(model, state, control, &surfaces, &fused, dt);
+        self.surfaces = surfaces;
+        self.air
+            .finish(air.model, control.air_enabled, &self.regions, volume_change);
+        fused.measures.remeasure_all(
+            &model.grid,
+            &state.x,
+            model.sticking,
+            model.radius,
+            fused.rows_per_task,
+        );
+        moved
+    }
+
+    /// The air as regions (a pressure known now, the explicit timing, is no gas spring in the
+    /// solve), each region's gas spring `dt^2 k_r`, and the air's share of the step.
+    fn begin_air(
+        &mut self,
+        model: &Model,
+        state: &State,
+        control: &Control,
+        air: &Air<'_>,
+        dt: Real,
+    ) {
         air.model
             .regions(air.params, model, control.air_enabled, &mut self.regions);
-        let implicit_air = air.timing == Timing::EndOfStep;
+        self.air
+            .begin(air.model, &self.regions, air.timing, model, &state.x);
+        let end_of_step = self.air.end_of_step;
         self.gas.clear();
         self.gas.extend(self.regions.list.iter().map(|r| {
-            if implicit_air {
+            if end_of_step {
                 dt * dt * r.stiffness
             } else {
                 0.0
             }
         }));
-        self.forces(model, &state.x);
-        // The colliders where they are over the step (for moving ones).
+    }
+
+    /// The colliders where they are over the step (empty where none moves: the contacts read
+    /// the model's own).
+    fn place_colliders(&mut self, model: &Model, start: Real, dt: Real) -> Vec<Surface> {
         let mut surfaces = std::mem::take(&mut self.surfaces);
-        Surface::of_step(model, fused.start, dt, &mut surfaces);
+        Surface::of_step(model, start, dt, &mut surfaces);
+        surfaces
+    }
+
+    /// The inertia `M (1 + dt c)`, the right-hand side `M v + dt f`, the first guess of `v+`,
+    /// and (in `r`, free until the solve) the velocity at the step's start.
+    fn right_hand_side(&mut self, model: &Model, state: &State, dt: Real) {
         let c = model.damping;
         let Motion::Previous(prev) = &state.motion else {
-            unreachable!("converted above")
+            unreachable!("converted by the step")
         };
-        for k in 0..n {
+        for k in 0..state.len() {
             let m = model.mass(k);
             self.inertia[k] = m * (1.0 + dt * c);
             let v = (state.x.get(k) - prev.get(k)) / dt;
@@ -365,27 +363,36 @@ impl Implicit {
                 SolveBudget::Interactive => state.acceleration.get(k),
             };
             self.v.set(k, v + a * dt);
-            // The velocity at the start, for the contacts below (`r` is free until the solve).
             self.r.set(k, v);
         }
-        // Constraints: the hands, then contacts where a particle touches or would reach a
-        // collider during the step at its current speed. A contact that ended the last step
-        // sliding and still moves starts sliding against the friction it had; any other starts
-        // held (the friction cone decides after the first solve). Starting every contact held,
-        // a cloth sliding over the table was gripped anew at each step's start: the thesis
-        // demo lifted at 1/60 s pulled the hand with 0.26 N against the explicit 0.14 N.
-        // The last step's final constraints are kept beside this step's (`keep_product`).
+    }
+
+    /// The step's first constraints: the hands, then contacts where a particle touches or would
+    /// reach a collider during the step at its current speed. A contact that ended the last
+    /// step sliding and still moves starts sliding against the friction it had; any other
+    /// starts held (the friction cone decides after the first solve). Starting every contact
+    /// held, a cloth sliding over the table was gripped anew at each step's start: the thesis
+    /// demo lifted at 1/60 s pulled the hand with 0.26 N against the explicit 0.14 N. The last
+    /// step's final constraints are kept beside this step's (`keep_product`).
+    fn constrain(
+        &mut self,
+        model: &Model,
+        state: &State,
+        control: &Control,
+        surfaces: &[Surface],
+        dt: Real,
+    ) {
         std::mem::swap(&mut self.constraints, &mut self.prev_constraints);
         self.constraints.fill(Constraint::Free);
         for (k, target) in control.active() {
             self.constraints[k] = Constraint::Fixed((target - state.x.get(k)) / dt);
         }
-        for k in 0..n {
+        for k in 0..state.len() {
             if self.constraints[k] != Constraint::Free {
                 continue;
             }
             let (x, v) = (state.x.get(k), self.r.get(k));
-            let c = contact_constraint(model, &surfaces, k, x, v, dt, state.contact[k]);
+            let c = contact_constraint(model, surfaces, k, x, v, dt, state.contact[k]);
             let Constraint::Stick { n, vn, mu, u } = c else {
                 self.constraints[k] = c;
                 continue;
@@ -415,253 +422,209 @@ impl Implicit {
                 },
             };
         }
-        // `System` borrows the regions; the rest of `self` is used mutably below.
-        let regions = std::mem::take(&mut self.regions);
-        let sys = System {
-            nx,
-            nz,
-            dt2: dt * dt,
-            regions: &regions,
-        };
+    }
+
+    /// The step's diagonal (the preconditioner's), and the last step's product `A v` kept
+    /// where it still holds.
+    fn prepare_matrix(&mut self, sys: &System<'_>) {
         // Read before `precondition` consumes them.
-        let product_current = self.av_fresh && self.diag_kept;
-        self.precondition(&sys);
-        self.keep_product(&sys, product_current);
+        let product_current = self.kept.av_fresh && self.kept.diag_kept;
+        self.precondition(sys);
+        self.keep_product(sys, product_current);
         self.iterations = 0;
         self.first_residual = None;
-        // The thesis bubble's gas spring (Pa/m^3), whose pressure the solve predicts from the
-        // volume at the step's end: its miss beyond the linear prediction (`volume_miss`) shifts
-        // the pressure, and the step is solved again while the shift moves.
-        let stiff = match (&air.model, regions.list.first()) {
-            (crate::air::AirModel::Thesis(_), Some(r)) if implicit_air => r.stiffness,
-            _ => 0.0,
-        };
-        let mut miss = 0.0;
-        let mut shift = Relaxation::default();
-        // The bubble's volume now (m^3): measured once, the miss is measured after each solve.
-        let start_volume = match model.sticking {
-            Some(plane) if stiff > 0.0 => {
-                crate::air::volume(&model.grid, &state.x, plane, model.radius)
-            }
-            _ => 0.0,
-        };
-        if stiff > 0.0 {
-            miss = self.volume_miss(model, &state.x, start_volume, dt);
-            self.shift_pressure(stiff * miss, dt);
-        }
-        // The rims start from their pockets' pressures now (a pocket at rest keeps them: no
-        // second solve), and follow the solves' end-of-step pressures.
-        if implicit_air && !regions.rim.is_empty() {
-            self.rim_pressures(model, &regions, dt, true);
-        }
-        // The budget: solves while the contacts change, solves that only correct the bubble's
-        // pressure, and the tolerance of the final ones. The interactive budget takes one solve
-        // with the contacts the step starts with (landings are resolved after the step), one
-        // pressure correction and one re-check of the contacts, all to its coarse tolerance.
-        let interactive = self.budget == SolveBudget::Interactive;
-        let (passes, pressure_passes, tolerance) = if interactive {
-            (1, 1, INTERACTIVE_TOLERANCE)
-        } else {
-            (CONTACT_PASSES, PRESSURE_PASSES, CG_TOLERANCE)
-        };
-        for pass in 0..passes {
-            let last = pass + 1 == passes;
+    }
+
+    /// The solves while the contact set changes: after each, contacts that pull go free, held
+    /// ones outside the friction cone slide, slides follow their speed, particles that would
+    /// land inside a collider are constrained, the air's pressures follow the solve, and springs
+    /// the solve takes past the strain limit stiffen; the solve whose changes are none (or the
+    /// last allowed) is finished to the full tolerance.
+    fn solve_contacts(
+        &mut self,
+        sys: &System<'_>,
+        model: &Model,
+        state: &State,
+        surfaces: &[Surface],
+        dt: Real,
+        budget: Budget,
+    ) {
+        for pass in 0..budget.passes {
+            let last = pass + 1 == budget.passes;
             self.solve_and_apply(
-                &sys,
+                sys,
                 if last {
-                    tolerance
+                    budget.tolerance
                 } else {
                     CG_CONTACT_TOLERANCE
                 },
             );
             if last {
-                self.limit_and_resolve(&sys, model, &state.x, dt, tolerance);
+                self.limit_and_resolve(sys, model, &state.x, dt, budget.tolerance);
                 break;
             }
-            // Release contacts that pull or slip; constrain particles that would land inside
-            // a collider.
-            let mut changed = false;
-            self.landed.clear();
-            self.landed.resize(n, false);
-            for k in 0..n {
-                let c = self.constraints[k];
-                match c {
-                    Constraint::Normal {
-                        n: normal,
-                        vn,
-                        mu,
-                        drag,
-                        t,
-                        kinetic,
-                        u,
-                    } => {
-                        // The normal impulse: the residual's normal part (friction is
-                        // tangential).
-                        let v = self.v.get(k);
-                        let lambda = self.av.get(k) - self.rhs.get(k);
-                        let push = lambda.dot(normal);
-                        if push < 0.0 {
-                            self.constraints[k] = Constraint::Free;
-                            self.precondition_one(k);
-                            changed = true;
-                        } else if let Some(c) = self.slide_change(
-                            k,
-                            (normal, vn, mu, u),
-                            (drag, t, kinetic),
-                            c.slip(v),
-                            push,
-                        ) {
-                            self.constraints[k] = c.0;
-                            self.precondition_one(k);
-                            changed |= c.1;
-                        }
-                    }
-                    Constraint::Free => {
-                        let x = state.x.get(k);
-                        let to = x + self.v.get(k) * dt;
-                        if let Some((c, through)) =
-                            landing_constraint(model, &surfaces, k, x, to, dt)
-                        {
-                            self.constraints[k] = self.landing_friction(k, c);
-                            self.precondition_one(k);
-                            self.landed[k] = through;
-                            changed = true;
-                        }
-                    }
-                    Constraint::Stick {
-                        n: normal,
-                        vn,
-                        mu,
-                        u,
-                    } => {
-                        // Inside the friction cone, or sliding, or pulling free.
-                        if let Some(c) = self.held_change(k, (normal, vn, mu, u), state, dt) {
-                            self.constraints[k] = c;
-                            self.precondition_one(k);
-                            changed = true;
-                        }
-                    }
-                    Constraint::Fixed(_) => {}
-                }
-            }
-            if stiff > 0.0 {
-                let now = self.volume_miss(model, &state.x, start_volume, dt);
-                let dp = shift.next(stiff * miss, stiff * now);
-                if dp.abs() > PRESSURE_TOLERANCE {
-                    self.shift_pressure(dp, dt);
-                    miss += dp / stiff;
-                    changed = true;
-                }
-            }
-            if implicit_air
-                && !regions.rim.is_empty()
-                && self.rim_pressures(model, &regions, dt, false)
-            {
-                changed = true;
-            }
+            let mut changed = self.update_contacts(model, state, surfaces, dt);
+            changed |= self.air.correct_bubble(
+                model,
+                &state.x,
+                &self.v,
+                &self.per_pascal,
+                &mut self.rhs,
+                dt,
+            );
+            changed |= self.air.correct_rims(
+                model,
+                sys.regions,
+                &self.v,
+                &self.per_pascal,
+                &mut self.rhs,
+                dt,
+            );
             // The strain limit: springs this solve takes past it go onto their stiff branch.
             if self.tighten(model, &state.x, dt) {
-                self.precondition(&sys);
+                self.precondition(sys);
                 changed = true;
             }
             if !changed {
                 // The contact set holds: finish this solve to the full tolerance (and, as after
                 // the last allowed solve, once more if that takes a spring past the limit).
-                self.solve_and_apply(&sys, tolerance);
-                self.limit_and_resolve(&sys, model, &state.x, dt, tolerance);
+                self.solve_and_apply(sys, budget.tolerance);
+                self.limit_and_resolve(sys, model, &state.x, dt, budget.tolerance);
                 break;
             }
         }
-        // The bubble's pressure, once more from the last (accurate) solve: the passes above
-        // measure the miss after solves stopped at CG_CONTACT_TOLERANCE and never after the
-        // last one. The contact set is kept.
+    }
+
+    /// The bubble's pressure, once more from the last (accurate) solve: the contact passes
+    /// measure the miss after solves stopped at [`CG_CONTACT_TOLERANCE`] and never after the
+    /// last one. The contact set is kept. Returns whether the pressure moved.
+    fn solve_pressure(
+        &mut self,
+        sys: &System<'_>,
+        model: &Model,
+        state: &State,
+        dt: Real,
+        budget: Budget,
+    ) -> bool {
         let mut shifted = false;
-        if stiff > 0.0 {
-            for _ in 0..pressure_passes {
-                let now = self.volume_miss(model, &state.x, start_volume, dt);
-                let dp = shift.next(stiff * miss, stiff * now);
-                if dp.abs() <= PRESSURE_TOLERANCE {
-                    break;
-                }
-                self.shift_pressure(dp, dt);
-                miss += dp / stiff;
-                self.solve_and_apply(&sys, tolerance);
-                shifted = true;
+        for _ in 0..budget.pressure_passes {
+            if !self.air.correct_bubble(
+                model,
+                &state.x,
+                &self.v,
+                &self.per_pascal,
+                &mut self.rhs,
+                dt,
+            ) {
+                break;
             }
+            self.solve_and_apply(sys, budget.tolerance);
+            shifted = true;
         }
-        // Those solves kept the contact set while the pressure moved, and with it every
-        // contact's normal force: one held at the friction cone's edge (a rim that friction
-        // barely holds against the tent's pull) may now be outside it, one barely pressed may
-        // pull. They slide or go free and the step is solved once more. Without it the held
-        // `air-400` (1/600 s) crept: its rim slid inwards by 0.8 mm in 0.37 s, ratcheted by
-        // the pressure's few pascals from step to step, and its contact fraction flickered
-        // between 0.415 and 0.45 (the explicit integrator's stays at 0.457).
-        if interactive {
+        shifted
+    }
+
+    /// The contacts once more after the pressure moved (`shifted`), and slides stopped where
+    /// the last solve reversed them. The pressure passes kept the contact set while the
+    /// pressure moved, and with it every contact's normal force: one held at the friction
+    /// cone's edge (a rim that friction barely holds against the tent's pull) may now be
+    /// outside it, one barely pressed may pull. They slide or go free and the step is solved
+    /// once more. Without it the held `air-400` (1/600 s) crept: its rim slid inwards by 0.8 mm
+    /// in 0.37 s, ratcheted by the pressure's few pascals from step to step, and its contact
+    /// fraction flickered between 0.415 and 0.45 (the explicit integrator's stays at 0.457).
+    fn settle_contacts(
+        &mut self,
+        sys: &System<'_>,
+        model: &Model,
+        state: &State,
+        dt: Real,
+        budget: Budget,
+        shifted: bool,
+    ) {
+        if budget.interactive {
             // The interactive budget's single pass over the contacts and the pockets' rims,
             // whether or not the pressure moved. (Without the rims' pressures here they kept
             // those of the step's start, and `pockets-bubbles` and `pockets-merge` blew up at
             // 1/60 s.)
             let mut changed = self.recheck_contacts(state, dt);
-            if implicit_air && !regions.rim.is_empty() {
-                changed |= self.rim_pressures(model, &regions, dt, false);
-            }
+            changed |= self.air.correct_rims(
+                model,
+                sys.regions,
+                &self.v,
+                &self.per_pascal,
+                &mut self.rhs,
+                dt,
+            );
             if changed {
-                self.solve_and_apply(&sys, tolerance);
+                self.solve_and_apply(sys, budget.tolerance);
             }
         } else if shifted && self.recheck_contacts(state, dt) {
-            self.solve_and_apply(&sys, tolerance);
+            self.solve_and_apply(sys, budget.tolerance);
         }
         // A slide the last solve moved against its direction would have its friction push it
         // on: it becomes a drag-only slide and the step is solved again.
-        for _ in 0..passes {
+        for _ in 0..budget.passes {
             if !self.stop_reversed_slides() {
                 break;
             }
-            self.solve_and_apply(&sys, tolerance);
+            self.solve_and_apply(sys, budget.tolerance);
         }
-        self.total_iterations += self.iterations as u64;
-        // The constraint forces of the final solution (in `av`): the hands' and the contacts'.
-        self.regions = regions;
-        let Motion::Previous(prev) = &mut state.motion else {
-            unreachable!("converted above")
-        };
+    }
+
+    /// The hands' forces from the final solution's residual (thesis 3.2 step 3), and their
+    /// work.
+    fn hand_forces(&mut self, state: &State, control: &mut Control, dt: Real) {
         let mut work = 0.0;
         for (g, target) in control.grabs.iter_mut().zip(&control.targets) {
             let k = g.particle;
             match target {
                 Some(target) => {
-                    g.force = (self.av.get(k) - self.rhs.get(k)) / dt;
+                    g.force = (self.kept.av.get(k) - self.rhs.get(k)) / dt;
                     work += checks::work(g.force, state.x.get(k), *target).abs();
                 }
                 None => g.force = Vec3::ZERO,
             }
         }
         control.hand_work += work;
-        // Friction, the move, and any contact the solve did not foresee.
+    }
+
+    /// The move `x+ = x + dt v+`: the hands' particles to their targets, any contact the solve
+    /// did not foresee resolved, the contact flags and slides carried to the next step, the
+    /// moving colliders' work. Returns the largest squared distance (m^2) from
+    /// `fused.reference` and the thesis bubble's volume change by its pressure force's measure
+    /// (m^3).
+    fn move_particles(
+        &mut self,
+        model: &Model,
+        state: &mut State,
+        control: &mut Control,
+        surfaces: &[Surface],
+        fused: &Fused<'_>,
+        dt: Real,
+    ) -> (Real, Real) {
+        let Motion::Previous(prev) = &mut state.motion else {
+            unreachable!("converted by the step")
+        };
         let mut moved: Real = 0.0;
         let single_still = model.colliders.len() == 1 && model.moving.is_empty();
-        // The thesis' bubble's volume change over the step, m^3 (its pressure below).
-        let bubble = matches!(air.model, crate::air::AirModel::Thesis(_));
+        let bubble = self.air.measures_bubble();
         let mut volume_change = 0.0;
         // The moving colliders' work on the cloth over the step, J (magnitudes summed, as the
         // explicit integrator's).
         let mut surface_work = 0.0;
-        for k in 0..n {
+        for k in 0..self.v.len() {
             let x = state.x.get(k);
             let v = self.v.get(k);
             let mut touched = false;
-            if let Constraint::Normal { n: normal, .. } | Constraint::Stick { n: normal, .. } =
-                self.constraints[k]
+            if let Constraint::Normal { n: normal, u, .. }
+            | Constraint::Stick { n: normal, u, .. } = self.constraints[k]
             {
                 // Touching while the surface pushes.
-                let lambda = self.av.get(k) - self.rhs.get(k);
+                let lambda = self.kept.av.get(k) - self.rhs.get(k);
                 touched = lambda.dot(normal) > 0.0;
                 // A moving surface works on the cloth it pushes and carries: the contact's
                 // impulse (N s) times the surface's velocity (m/s).
-                if let Constraint::Normal { u, .. } | Constraint::Stick { u, .. } =
-                    self.constraints[k]
-                    && u != Vec3::ZERO
-                {
+                if u != Vec3::ZERO {
                     surface_work += lambda.dot(u).abs();
                 }
             }
@@ -685,7 +648,7 @@ impl Implicit {
                         contact::resolve_scaled(&model.colliders, x, to, model.radius, scale)
                     } else {
                         let (p, hit, w) =
-                            resolve_surfaces(&surfaces, x, to, model, k, scale, dt * dt);
+                            resolve_surfaces(surfaces, x, to, model, k, scale, dt * dt);
                         surface_work += w;
                         (p, hit)
                     };
@@ -708,33 +671,46 @@ impl Implicit {
                 _ => Slide::None,
             };
             // The step's mean acceleration: from the velocity at its start (the bits the
-            // first guess above started from) to the one it ends with.
+            // first guess started from) to the one it ends with.
             let v0 = (x - prev.get(k)) / dt;
             state.acceleration.set(k, ((to - x) / dt - v0) / dt);
             prev.set(k, to);
         }
         std::mem::swap(prev, &mut state.x);
         control.collider_work += surface_work;
-        self.surfaces = surfaces;
-        // The pressure the step applied: the gas spring's, linearised at the end of the step.
-        if let crate::air::AirModel::Thesis(b) = air.model
-            && control.air_enabled
-            && let Some(r) = self.regions.list.first()
-        {
-            b.applied_pressure = if implicit_air {
-                (r.pressure - r.stiffness * (volume_change + miss)).max(0.0)
-            } else {
-                r.pressure
-            };
+        (moved, volume_change)
+    }
+}
+
+/// How much a step solves ([`SolveBudget`]): solves while the contacts change, solves that only
+/// correct the bubble's pressure, and the tolerance of the final ones. The interactive budget
+/// takes one solve with the contacts the step starts with (landings are resolved after the
+/// step), one pressure correction and one re-check of the contacts, all to its coarse
+/// tolerance.
+#[derive(Clone, Copy, Debug)]
+struct Budget {
+    interactive: bool,
+    passes: usize,
+    pressure_passes: usize,
+    tolerance: Real,
+}
+
+impl Budget {
+    fn of(budget: SolveBudget) -> Self {
+        match budget {
+            SolveBudget::Interactive => Budget {
+                interactive: true,
+                passes: 1,
+                pressure_passes: 1,
+                tolerance: INTERACTIVE_TOLERANCE,
+            },
+            SolveBudget::Converged => Budget {
+                interactive: false,
+                passes: CONTACT_PASSES,
+                pressure_passes: PRESSURE_PASSES,
+                tolerance: CG_TOLERANCE,
+            },
         }
-        fused.measures.remeasure_all(
-            &model.grid,
-            &state.x,
-            model.sticking,
-            model.radius,
-            fused.rows_per_task,
-        );
-        moved
     }
 }
 
@@ -827,43 +803,6 @@ mod tests {
                 taken > 20,
                 "ball {ball}, friction {friction}: {taken} partial products"
             );
-        }
-    }
-
-    /// A miss that answers a shift linearly, `k miss(s) = a - b s` (`G' = -b`), root `a / (1 +
-    /// b)`. With `b = 2` the plain fixed-point step multiplies the error by `-b` and diverges;
-    /// the relaxed one, after its first (plain) step, shrinks it by `1 / (2 - G') = 1 / 4` a
-    /// solve. With `b = 20` the scale `1 / 22` is below [`Relaxation::MIN_SCALE`] and clamped:
-    /// the error is multiplied by `1 - 0.1 (1 + b) = -1.1` a solve.
-    #[test]
-    fn relaxation_converges_where_the_fixed_point_diverges() {
-        let errors = |b: Real, plain: bool| {
-            let (a, root) = (10.0, 10.0 / (1.0 + b));
-            let mut shift = Relaxation::default();
-            let mut s: Real = 0.0;
-            let mut out = Vec::new();
-            for _ in 0..6 {
-                let target = a - b * s;
-                s += if plain {
-                    target - s
-                } else {
-                    shift.next(s, target)
-                };
-                out.push(s - root);
-            }
-            out
-        };
-        let plain = errors(2.0, true);
-        let relaxed = errors(2.0, false);
-        for w in plain.windows(2) {
-            assert!((w[1] / w[0] + 2.0).abs() < 1e-9, "plain: {plain:?}");
-        }
-        for w in relaxed[1..].windows(2) {
-            assert!((w[1] / w[0] - 0.25).abs() < 1e-9, "relaxed: {relaxed:?}");
-        }
-        let clamped = errors(20.0, false);
-        for w in clamped[1..].windows(2) {
-            assert!((w[1] / w[0] + 1.1).abs() < 1e-9, "clamped: {clamped:?}");
         }
     }
 }

@@ -7,29 +7,25 @@ use super::*;
 /// Fewest particles for the multigrid preconditioner (below, the diagonal is as fast).
 pub(super) const MULTIGRID_MIN_PARTICLES: usize = 400;
 
-/// Most gas regions whose rank-one term the multigrid preconditioner corrects for (Woodbury);
-/// the others are left to the conjugate gradient.
-pub(super) const MAX_GAS_CORRECTIONS: usize = 8;
-
 impl Implicit {
     /// The inverse diagonal of `A` (a direction of springs at a time, vectorised), with each
     /// sliding contact's drag.
     pub(super) fn precondition(&mut self, sys: &System<'_>) {
         // The matrix changed (a new step's, or springs past the strain limit): `av` is stale.
-        self.av_fresh = false;
+        self.kept.notify(Change::Matrix);
         let (nx, nz) = (sys.nx, sys.nz);
         let n = nx * nz;
-        let mut h = std::mem::take(&mut self.diag_springs);
-        if std::mem::take(&mut self.diag_kept) {
+        let mut h = std::mem::take(&mut self.kept.diag_springs);
+        if std::mem::take(&mut self.kept.diag_kept) {
             // Only the springs around moved particles changed: their particles' sums again.
             let stamp = self.next_stamp();
-            let mut mark = std::mem::take(&mut self.row_mark);
-            for k in (0..n).filter(|&k| self.lin_moved[k]) {
+            let mut mark = std::mem::take(&mut self.kept.row_mark);
+            for k in (0..n).filter(|&k| self.kept.lin_moved[k]) {
                 each_new_neighbour(nx, nz, k, &mut mark, stamp, |m| {
                     h.set(m, self.diag_exact(sys, m));
                 });
             }
-            self.row_mark = mark;
+            self.kept.row_mark = mark;
             #[cfg(test)]
             self.check_diagonal(sys, &h);
         } else {
@@ -52,7 +48,7 @@ impl Implicit {
             base.set(a, d);
         }
         self.diag_base = base;
-        self.diag_springs = h;
+        self.kept.diag_springs = h;
         for a in 0..n {
             self.precondition_one(a);
         }
@@ -60,12 +56,8 @@ impl Implicit {
 
     /// The inverse diagonal at particle `k` after its constraint changed (a slide's drag).
     pub(super) fn precondition_one(&mut self, k: usize) {
-        // The multigrid's matrix has this row as it was.
-        self.mg_built = false;
-        // Its constraint changed, and with it its row's drag.
-        if self.av_fresh {
-            self.av_rows.push(k as u32);
-        }
+        // The multigrid's matrix and the kept product have this row as it was.
+        self.kept.notify(Change::Row(k));
         let d = self.diag_base.get(k);
         let d = match self.constraints[k] {
             Constraint::Normal { n, drag, t, .. } => d + (Vec3::ONE - n * n - t * t) * drag,
@@ -92,28 +84,7 @@ impl Implicit {
             |k| if free(k) { r.get(k) } else { Vec3::ZERO },
             |k, x| z.set(k, constraints[k].filter(x)),
         );
-        if self.gas_w.is_empty() {
-            return;
-        }
-        // z -= W G^-1 W^T r.
-        let m = self.gas_w.len();
-        let y = &mut self.gas_y;
-        y.clear();
-        y.extend(self.gas_w.iter().map(|w| {
-            active
-                .iter()
-                .map(|&k| w.get(k as usize).dot(r.get(k as usize)))
-                .sum::<Real>()
-        }));
-        cholesky_solve(&self.gas_chol, m, y);
-        for &k in active {
-            let k = k as usize;
-            let mut c = z.get(k);
-            for (w, y) in self.gas_w.iter().zip(y.iter()) {
-                c -= w.get(k) * *y;
-            }
-            z.set(k, c);
-        }
+        self.woodbury.correct(active, r, z);
     }
 
     /// The multigrid hierarchy of the filtered system matrix (without the gas springs'
@@ -170,52 +141,15 @@ impl Implicit {
             }
         }
         self.mg.build();
-        // The gas springs: u_r = S g_r over the region, w_r = S V u_r, and the Cholesky
-        // factor of G = diag(1 / (dt^2 k_r)) + U^T W.
         let n = nx * nz;
-        let regions = &mut self.gas_regions;
-        regions.clear();
-        regions.extend(
-            (0..self.gas.len())
-                .filter(|&r| self.gas[r] > 0.0)
-                .take(MAX_GAS_CORRECTIONS),
+        self.woodbury.build(
+            &mut self.mg,
+            &self.gas,
+            sys.regions,
+            &self.constraints,
+            &self.per_pascal,
+            n,
         );
-        let m = regions.len();
-        self.gas_u.truncate(m);
-        self.gas_w.truncate(m);
-        self.gas_u.resize_with(m, || Soa::zeros(n));
-        self.gas_w.resize_with(m, || Soa::zeros(n));
-        for ((&r, u), w) in regions.iter().zip(&mut self.gas_u).zip(&mut self.gas_w) {
-            for k in 0..n {
-                let g = if sys.regions.of(k) == Some(r) {
-                    self.constraints[k].filter(self.per_pascal.get(k))
-                } else {
-                    Vec3::ZERO
-                };
-                u.set(k, g);
-            }
-            let constraints = &self.constraints;
-            self.mg
-                .apply(|k| u.get(k), |k, x| w.set(k, constraints[k].filter(x)));
-        }
-        self.gas_chol.clear();
-        self.gas_chol.resize(m * m, 0.0);
-        for a in 0..m {
-            for b in 0..m {
-                let (u, w) = (&self.gas_u[a], &self.gas_w[b]);
-                let mut dot = 0.0;
-                for k in 0..n {
-                    dot += u.get(k).dot(w.get(k));
-                }
-                let own = if a == b {
-                    1.0 / self.gas[regions[a]]
-                } else {
-                    0.0
-                };
-                self.gas_chol[a * m + b] = dot + own;
-            }
-        }
-        cholesky(&mut self.gas_chol, m);
     }
 
     /// [`Implicit::solve`] to `tolerance`, counting its iterations, then `q = A v+` (the
@@ -261,9 +195,9 @@ impl Implicit {
         // The V-cycle runs over the whole grid, the diagonal over the free particles alone: the
         // multigrid pays where most of a large cloth is free.
         self.use_multigrid = n >= MULTIGRID_MIN_PARTICLES && 2 * active.len() >= n;
-        if self.use_multigrid && !self.mg_built {
+        if self.use_multigrid && !self.kept.mg_built {
             self.build_multigrid(sys);
-            self.mg_built = true;
+            self.kept.notify(Change::MultigridBuilt);
         }
         self.precondition_residual(&active);
         for &k in &active {

@@ -384,10 +384,10 @@ impl Implicit {
         }
         // The particles that moved since the springs' last linearisation (all, if it is
         // stale): on a cloth the vacuum pins, nearly none of them from one step to the next.
-        let fresh = self.lin_fresh;
+        let fresh = self.kept.lin_fresh;
         for k in 0..n {
-            let moved = !fresh || !same_bits(x.get(k), self.lin_x.get(k));
-            self.lin_moved[k] = moved;
+            let moved = !fresh || !same_bits(x.get(k), self.kept.lin_x.get(k));
+            self.kept.lin_moved[k] = moved;
         }
         // Each run of springs linearised where a particle of the spring moved (in stretches of
         // such springs, vectorised), its forces kept elsewhere, then scattered.
@@ -395,7 +395,7 @@ impl Implicit {
             let (k, l) = dir.constants(c);
             let limit = Limit::new(model.strain_limit, k, l);
             let set = self.springs.get_mut(dir);
-            let moved = |e: usize| self.lin_moved[e + oa] || self.lin_moved[e + ob];
+            let moved = |e: usize| self.kept.lin_moved[e + oa] || self.kept.lin_moved[e + ob];
             let mut e = run.start;
             while e < run.end {
                 let m = moved(e);
@@ -419,14 +419,15 @@ impl Implicit {
             set.scatter_range(&mut self.force, run, oa, ob);
         }
         for (to, from) in [
-            (&mut self.lin_x.x, &x.x),
-            (&mut self.lin_x.y, &x.y),
-            (&mut self.lin_x.z, &x.z),
+            (&mut self.kept.lin_x.x, &x.x),
+            (&mut self.kept.lin_x.y, &x.y),
+            (&mut self.kept.lin_x.z, &x.z),
         ] {
             to.clone_from(from);
         }
-        self.diag_kept = fresh;
-        self.lin_fresh = true;
+        self.kept.notify(Change::Linearised {
+            kept_springs: fresh,
+        });
         // The pressure force of 1 Pa on every particle: S N_i (or by area).
         if self.regions.list.is_empty() && self.regions.extra.is_empty() {
             return;

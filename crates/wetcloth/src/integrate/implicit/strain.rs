@@ -82,7 +82,7 @@ impl Implicit {
             return false;
         }
         // Springs on their stiff branch: the next step linearises every spring anew.
-        self.lin_fresh = false;
+        self.kept.notify(Change::Stiffened);
         for k in 0..nx * nz {
             self.rhs.set(k, self.rhs.get(k) + self.force.get(k) * dt);
         }
