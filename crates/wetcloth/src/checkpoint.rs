@@ -1,7 +1,7 @@
 //! Checkpoints: everything a step carries to the next, so that a simulation can be stopped,
 //! stored and continued bit for bit.
 //!
-//! A [`Checkpoint`] holds the parts of a [`Simulation`] that are not rebuilt from its
+//! A [`Checkpoint`] holds the parts of a [`Simulation`](crate::Simulation) that are not rebuilt from its
 //! configuration: the [`State`] (positions, motion, contacts and their slides' friction, the
 //! implicit integrator's last accelerations, step count), the [`Control`] (grabs with their
 //! anchors and last targets, which particles are held, the hands' work so far, the air
@@ -10,7 +10,7 @@
 //! cell measures of the current state and the energy audit. The model (grid, masses, colliders) is rebuilt from the configuration, and
 //! the integrator's buffers are scratch that every step overwrites before reading, so neither
 //! is stored.
-//! [`Simulation::restore`] builds a simulation from the configuration and a checkpoint;
+//! [`Simulation::restore`](crate::Simulation::restore) builds a simulation from the configuration and a checkpoint;
 //! stepping it gives exactly the numbers the original would have given (see the test
 //! `checkpoint_restore_continues_bit_for_bit` in `tests/checkpoint.rs`).
 //!
@@ -24,7 +24,7 @@
 //! no file format (`wetcloth run` stores checkpoints as postcard with a version and a checksum,
 //! see `docs/reliability.md`). State added to the core later is one derive away: a type a step
 //! carries forward gets `#[cfg_attr(feature = "serde", derive(serde::Serialize,
-//! serde::Deserialize))]` and, if it is a new field of [`Simulation`], a field here, with
+//! serde::Deserialize))]` and, if it is a new field of [`Simulation`](crate::Simulation), a field here, with
 //! [`CHECKPOINT_VERSION`] raised so that older checkpoints are refused rather than misread.
 //! Pure scratch may be left out with `#[cfg_attr(feature = "serde", serde(skip))]`.
 
@@ -33,7 +33,8 @@ use crate::checks::EnergyAudit;
 use crate::collide::self_collision::SelfCollision;
 use crate::control::Control;
 use crate::measure::Measures;
-use crate::sim::Simulation;
+use crate::model::Grid;
+use crate::params::SimConfig;
 use crate::state::{Motion, State};
 
 /// Version of a checkpoint's contents; raised whenever a stored type changes.
@@ -87,17 +88,22 @@ impl Checkpoint {
         &self.state
     }
 
-    /// Checks that it fits `fresh`, a simulation just built from the configuration it is to
-    /// continue: the same number of particles, air model, integrator and self-collision, every
-    /// index in range.
-    pub(crate) fn check_fits(&self, fresh: &Simulation) -> Result<(), RestoreError> {
+    /// Checks that it fits a simulation just built from the configuration `config` it is to
+    /// continue (its cloth `grid`, its fresh `state` and `air`): the same number of particles,
+    /// air model, integrator and self-collision, every index in range.
+    pub(crate) fn check_fits(
+        &self,
+        config: &SimConfig,
+        grid: &Grid,
+        state: &State,
+        air: &AirModel,
+    ) -> Result<(), RestoreError> {
         if self.version != CHECKPOINT_VERSION {
             return Err(RestoreError::Version {
                 found: self.version,
                 expected: CHECKPOINT_VERSION,
             });
         }
-        let grid = fresh.grid();
         let n = grid.len();
         let bad = |what: String| Err(RestoreError::Mismatch(what));
         let soa_fits = |s: &crate::math::Soa, len: usize| {
@@ -110,7 +116,7 @@ impl Checkpoint {
                 s.x.len()
             ));
         }
-        match (&s.motion, &fresh.state().motion) {
+        match (&s.motion, &state.motion) {
             (Motion::Previous(p), Motion::Previous(_))
             | (Motion::Velocity(p), Motion::Velocity(_))
                 if soa_fits(p, n) => {}
@@ -141,7 +147,7 @@ impl Checkpoint {
                 g.particle
             ));
         }
-        if std::mem::discriminant(&self.air) != std::mem::discriminant(fresh.air()) {
+        if std::mem::discriminant(&self.air) != std::mem::discriminant(air) {
             return bad("another air model".into());
         }
         if let AirModel::Pockets(p) = &self.air {
@@ -160,7 +166,7 @@ impl Checkpoint {
                 return bad("the pockets do not fit the cloth".into());
             }
         }
-        match (&self.self_collision, fresh.config().cloth.self_collision) {
+        match (&self.self_collision, config.cloth.self_collision) {
             (None, false) => {}
             (Some(sc), true) => {
                 if !sc.fits(n) {
@@ -171,7 +177,7 @@ impl Checkpoint {
         }
         let (m, want) = (
             &self.measures,
-            Measures::for_grid(grid, AirModel::keeps_cells(&fresh.config().air)),
+            Measures::for_grid(grid, AirModel::keeps_cells(&config.air)),
         );
         if m.rows.len() != want.rows.len()
             || m.cells.len() != want.cells.len()

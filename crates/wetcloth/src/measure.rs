@@ -1,12 +1,13 @@
 //! What a step measures of its new state, in one pass over the cells: the gap volume under
-//! them (eq. 3.10, for the air model) and the blow-up measures (for [`crate::checks`]).
+//! them (eq. 3.10, for the air model) and the blow-up measures (for the blow-up checks, `checks.rs`).
 //!
 //! The two are measured together because they read the same corners: the fused Verlet pass
 //! measures each block of rows right after moving it, while the positions are in cache, and
 //! only re-measures rows that a later phase moved. Reductions run in lanes combined in a fixed
 //! order, and rows are summed in row order, so the result does not depend on threads.
 
-use crate::air::gap::{StickingPlane, cell_volume6};
+use crate::air::gap::cell_volume6;
+use crate::collide::StickingPlane;
 use crate::math::{Real, RowRef, Soa, Vec3, row};
 use crate::model::Grid;
 use rayon::prelude::*;

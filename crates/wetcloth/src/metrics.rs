@@ -1,7 +1,7 @@
 //! Per-frame measurements: the columns of `metrics.csv`.
 
-use crate::math::Real;
-use crate::sim::Simulation;
+use crate::math::{Real, Soa};
+use crate::model::Grid;
 
 /// Column names of [`FrameMetrics::values`], in order, as in `metrics.csv` (after `frame`).
 pub const COLUMNS: [&str; 10] = [
@@ -45,10 +45,11 @@ pub struct FrameMetrics {
 }
 
 impl FrameMetrics {
-    /// Measures the current state of `sim`.
-    pub fn measure(sim: &Simulation) -> Self {
-        let grid = sim.grid();
-        let x = sim.positions();
+    /// The cloth's own columns of positions `x` on `grid` with contact flags `contact`: the
+    /// largest height (m), the largest relative stretch of a structural spring, and the
+    /// fraction of particles touching a collider, as `(max_height, max_stretch,
+    /// contact_fraction)`. [`crate::Simulation::metrics`] adds the rest.
+    pub fn cloth(grid: &Grid, x: &Soa, contact: &[bool]) -> (Real, Real, Real) {
         let n = grid.len();
         let mut max_height = Real::NEG_INFINITY;
         let mut max_stretch = Real::NEG_INFINITY;
@@ -56,7 +57,7 @@ impl FrameMetrics {
         for k in 0..n {
             let p = x.get(k);
             max_height = max_height.max(p.y);
-            contacts += usize::from(sim.in_contact(k));
+            contacts += usize::from(contact[k]);
             let (i, j) = (k % grid.nx, k / grid.nx);
             if i + 1 < grid.nx {
                 max_stretch = max_stretch.max((x.get(k + 1) - p).length() / grid.dx - 1.0);
@@ -65,22 +66,7 @@ impl FrameMetrics {
                 max_stretch = max_stretch.max((x.get(k + grid.nx) - p).length() / grid.dz - 1.0);
             }
         }
-        Self {
-            time: sim.time(),
-            air_volume: sim.air_volume(),
-            air_pressure: sim.air_pressure(),
-            kinetic_energy: sim.state().kinetic_energy_with(
-                sim.model().masses.as_deref(),
-                sim.particle_mass(),
-                sim.time_step(),
-            ),
-            max_stretch,
-            contact_fraction: contacts as Real / n as Real,
-            max_height,
-            grab_force: sim.grab_force().length(),
-            trapped_air: sim.trapped_air(),
-            pocket_count: sim.pocket_count() as Real,
-        }
+        (max_height, max_stretch, contacts as Real / n as Real)
     }
 
     /// The values in [`COLUMNS`] order.

@@ -423,7 +423,24 @@ impl Simulation {
 
     /// Per-frame metrics of the current state (the `metrics.csv` columns).
     pub fn metrics(&self) -> FrameMetrics {
-        FrameMetrics::measure(self)
+        let (max_height, max_stretch, contact_fraction) =
+            FrameMetrics::cloth(self.grid(), self.positions(), &self.state.contact);
+        FrameMetrics {
+            time: self.time(),
+            air_volume: self.air_volume(),
+            air_pressure: self.air_pressure(),
+            kinetic_energy: self.state.kinetic_energy_with(
+                self.model.masses.as_deref(),
+                self.particle_mass(),
+                self.time_step(),
+            ),
+            max_stretch,
+            contact_fraction,
+            max_height,
+            grab_force: self.grab_force().length(),
+            trapped_air: self.trapped_air(),
+            pocket_count: self.pocket_count() as Real,
+        }
     }
 
     /// Advances by one time step: thesis fig. 3.4, as these phases.
@@ -695,7 +712,7 @@ impl Simulation {
     /// format version).
     pub fn restore(config: SimConfig, checkpoint: Checkpoint) -> Result<Self, RestoreError> {
         let mut sim = Self::new(config)?;
-        checkpoint.check_fits(&sim)?;
+        checkpoint.check_fits(&sim.config, &sim.model.grid, &sim.state, &sim.air)?;
         sim.put_back(checkpoint);
         Ok(sim)
     }

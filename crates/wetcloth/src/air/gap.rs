@@ -17,22 +17,7 @@
 use crate::math::{Real, Soa, Vec3};
 use crate::model::Grid;
 
-/// The sticking surface the gap is measured against: a plane through `point` with unit normal
-/// `up` (out of the solid, towards the cloth).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StickingPlane {
-    /// A point of the plane, m.
-    pub point: Vec3,
-    /// Unit normal, out of the solid.
-    pub up: Vec3,
-}
-
-impl StickingPlane {
-    /// The plane through `point` (m) with unit normal `up`.
-    pub fn new(point: Vec3, up: Vec3) -> Self {
-        Self { point, up }
-    }
-}
+pub use crate::collide::StickingPlane;
 
 /// Signed volume of the prism between triangle `(a, b, c)` and the plane (eq. 3.10, one term):
 /// its area projected along `up` times the mean height of its vertices. `ha, hb, hc` are the

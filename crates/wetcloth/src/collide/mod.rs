@@ -24,12 +24,14 @@ pub mod motion;
 pub mod plane;
 pub mod self_collision;
 pub mod sphere;
+pub mod sticking;
 
 pub use cuboid::Cuboid;
 pub use mesh::{Mesh, MeshError};
 pub use motion::{Key, Placement};
 pub use plane::Plane;
 pub use sphere::Sphere;
+pub use sticking::StickingPlane;
 
 use crate::error::ConfigError;
 use crate::math::{Real, Vec3};

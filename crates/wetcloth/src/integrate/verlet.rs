@@ -13,10 +13,10 @@
 
 use super::Air;
 use super::Fused;
-use crate::air::gap::StickingPlane;
 use crate::air::{AirLoad, Timing};
 use crate::checks;
 use crate::collide::Collider;
+use crate::collide::StickingPlane;
 use crate::collide::contact;
 use crate::collide::plane::{self, PlaneContact};
 use crate::control::Control;

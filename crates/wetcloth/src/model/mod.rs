@@ -7,8 +7,8 @@ mod grid;
 
 pub use grid::{Grid, Neighbour, STENCIL};
 
-use crate::air::gap::StickingPlane;
 use crate::collide::Collider;
+use crate::collide::StickingPlane;
 use crate::collide::plane::PlaneContact;
 use crate::forces::spring::SpringConsts;
 use crate::math::{Real, Vec3};

@@ -24,8 +24,8 @@ pub use air::{AirModelKind, AirParams, PocketSeed, PressureForce, PressureSolve}
 pub use cloth::{ClothParams, PaintShape, WetPaint};
 pub use simulation::{Integrator, SimulationParams, SolveBudget};
 
-use crate::air::gap::StickingPlane;
 use crate::collide::Collider;
+use crate::collide::StickingPlane;
 use crate::control::GrabSpec;
 use crate::error::ConfigError;
 use crate::math::{Real, Vec3};
