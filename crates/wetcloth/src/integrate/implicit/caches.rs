@@ -199,6 +199,7 @@ impl Implicit {
     /// so the result has the same bits: a cloth pressed flat moves a few dozen particles a solve
     /// and the product cost as much as the rest of its step. Otherwise (or where more than an
     /// eighth of the particles moved) the whole product.
+    #[inline(never)]
     pub(super) fn apply_v(&mut self, sys: &System<'_>) {
         let (nx, nz) = (sys.nx, sys.nz);
         let n = nx * nz;
@@ -253,6 +254,7 @@ impl Implicit {
     /// has the last one's size (the inertia and `dt^2` the same) and no gas spring acts now or
     /// then; on a cloth the vacuum pins, a step's first product then costs a few dozen rows
     /// instead of the whole grid.
+    #[inline(never)]
     pub(super) fn keep_product(&mut self, sys: &System<'_>, fresh: bool) {
         let gas_free = self.gas.iter().all(|&g| g == 0.0);
         if !(fresh

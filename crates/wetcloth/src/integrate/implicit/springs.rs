@@ -375,6 +375,7 @@ pub(super) fn spans(nx: usize, nz: usize) -> impl Iterator<Item = Run> {
 impl Implicit {
     /// Springs and their linearisation, gravity, damping-free forces and the pressure force per
     /// pascal at the positions `x`.
+    #[inline(never)]
     pub(super) fn forces(&mut self, model: &Model, x: &Soa) {
         let (nx, nz) = (model.grid.nx, model.grid.nz);
         let c = &model.springs;
