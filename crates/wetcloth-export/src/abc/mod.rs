@@ -292,28 +292,28 @@ impl<W: Write + Seek> AbcWriter<W> {
         let mut a = Archive::new(w, meta)?;
         let ts = a.add_uniform_sampling(1.0 / run.frame_rate, 0.0);
         let top = a.top();
-        let (scene, scene_schema, scene_inherits) = xform(&mut a, top, &identifier(&run.name), ts)?;
+        let (scene, scene_schema, _) = xform(&mut a, top, &identifier(&run.name), ts)?;
         user_properties(&mut a, scene_schema, spec.params)?;
-        let (cloth, _, cloth_inherits) = xform(&mut a, scene, "cloth", ts)?;
+        let (cloth, _, _) = xform(&mut a, scene, "cloth", ts)?;
         let faces = spec.triangles.iter().map(|t| t.to_vec()).collect();
         let mesh = MeshData {
             faces,
             uvs: Some(spec.uvs),
             points: None,
         };
+        // The cloth's topology and UVs are set once and held for every frame; a still
+        // transform is one sample.
         let (points, bounds, mut held) = poly_mesh(&mut a, cloth, "clothShape", ts, mesh)?;
-        held.extend([scene_inherits, cloth_inherits]);
 
         let mut moving = Vec::new();
         if !run.colliders.is_empty() {
-            let (group, _, inherits) = xform(&mut a, scene, "colliders", ts)?;
-            held.push(inherits);
+            let (group, _, _) = xform(&mut a, scene, "colliders", ts)?;
             let size = run.size[0].max(run.size[1]);
             for (k, c) in run.colliders.iter().enumerate() {
                 let name = format!("{}_{k}", c.shape_name());
                 let (obj, schema, inherits) = xform(&mut a, group, &name, ts)?;
-                held.push(inherits);
                 if c.is_moving() {
+                    held.push(inherits);
                     let s = Parent::Compound(schema);
                     let ops = a.add_scalar(s, ".ops", "", Pod::U8, 1, ts);
                     a.set(ops, &[MATRIX_OP], 1)?;
