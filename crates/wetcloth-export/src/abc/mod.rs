@@ -106,15 +106,8 @@ fn poly_mesh<W: Write + Seek>(
     if let Some(p) = mesh.points {
         set_points(a, points, bounds, p)?;
     }
-    // Clockwise, as Alembic stores faces.
-    let mut idx = Vec::new();
-    let mut cnt = Vec::with_capacity(mesh.faces.len());
-    for f in &mesh.faces {
-        idx.extend(f.iter().rev().map(|&i| i as i32));
-        cnt.push(f.len() as i32);
-    }
-    a.set_values(indices, &idx, 1, i32::to_le_bytes)?;
-    a.set_values(counts, &cnt, 1, i32::to_le_bytes)?;
+    a.set_values(indices, &mesh.clockwise, 1, i32::to_le_bytes)?;
+    a.set_values(counts, &mesh.counts, 1, i32::to_le_bytes)?;
     let mut held = vec![indices, counts];
     if let Some(uv) = mesh.uvs {
         let uvs = a.add_array(geom, "uv", UV, Pod::F32, 2, ts);
@@ -125,12 +118,30 @@ fn poly_mesh<W: Write + Seek>(
     Ok((points, bounds, held))
 }
 
-/// A mesh to write: faces (counter-clockwise, as the OBJ frames have them), UVs per vertex
-/// and the first points (the cloth's come with the first frame).
+/// A mesh to write: its faces as Alembic stores them, UVs per vertex and the first points
+/// (the cloth's come with the first frame).
 struct MeshData<'a> {
-    faces: Vec<Vec<u32>>,
+    /// Each face's vertices, clockwise (see [`clockwise`]).
+    clockwise: Vec<i32>,
+    /// Vertices per face.
+    counts: Vec<i32>,
     uvs: Option<&'a [[f32; 2]]>,
     points: Option<&'a [[f32; 3]]>,
+}
+
+/// Faces as Alembic stores them: the vertices of every face, clockwise, and their counts.
+type Faces = (Vec<i32>, Vec<i32>);
+
+/// Faces wound counter-clockwise (as the OBJ frames have them) as Alembic stores them: each
+/// face's vertices in reverse order, clockwise seen from its front. Returns the flat
+/// indices and the counts.
+fn clockwise<'f>(faces: impl Iterator<Item = &'f [u32]>) -> Faces {
+    let (mut idx, mut counts) = (Vec::new(), Vec::new());
+    for f in faces {
+        idx.extend(f.iter().rev().map(|&i| i as i32));
+        counts.push(f.len() as i32);
+    }
+    (idx, counts)
 }
 
 /// Sets the next sample of `points` and of `bounds` (its axis-aligned box, float64 min then
@@ -249,20 +260,20 @@ fn collider_matrix(c: &Collider, t: f64) -> [f64; 16] {
     m
 }
 
-/// The collider's mesh where the scene puts it: its points and counter-clockwise faces.
-fn collider_mesh(c: &Collider, cloth_size: f64) -> (Vec<[f32; 3]>, Vec<Vec<u32>>) {
+/// The collider's mesh where the scene puts it: its points and its faces, clockwise.
+fn collider_mesh(c: &Collider, cloth_size: f64) -> (Vec<[f32; 3]>, Faces) {
     match c.surface() {
         Surface::Plane { point, normal } => {
             let half = (PLANE_HALF_SIDE * cloth_size).max(PLANE_MIN_HALF_SIDE);
             let q = plane_corners(point.to_array(), normal.to_array(), half);
-            (q, vec![vec![0, 1, 2, 3]])
+            (q, clockwise([&[0, 1, 2, 3][..]].into_iter()))
         }
         Surface::Mesh(m) => (
             m.positions
                 .iter()
                 .map(|v| v.to_array().map(|c| c as f32))
                 .collect(),
-            m.triangles.iter().map(|t| t.to_vec()).collect(),
+            clockwise(m.triangles.iter().map(|t| &t[..])),
         ),
     }
 }
@@ -295,9 +306,10 @@ impl<W: Write + Seek> AbcWriter<W> {
         let (scene, scene_schema, _) = xform(&mut a, top, &identifier(&run.name), ts)?;
         user_properties(&mut a, scene_schema, spec.params)?;
         let (cloth, _, _) = xform(&mut a, scene, "cloth", ts)?;
-        let faces = spec.triangles.iter().map(|t| t.to_vec()).collect();
+        let (clockwise, counts) = clockwise(spec.triangles.iter().map(|t| &t[..]));
         let mesh = MeshData {
-            faces,
+            clockwise,
+            counts,
             uvs: Some(spec.uvs),
             points: None,
         };
@@ -342,9 +354,10 @@ impl<W: Write + Seek> AbcWriter<W> {
                     },
                 ];
                 user_properties(&mut a, schema, &params)?;
-                let (p, faces) = collider_mesh(c, size);
+                let (p, (clockwise, counts)) = collider_mesh(c, size);
                 let mesh = MeshData {
-                    faces,
+                    clockwise,
+                    counts,
                     uvs: None,
                     points: Some(&p),
                 };

@@ -151,8 +151,6 @@ pub(crate) struct Archive<W: Write + Seek> {
     /// Data blocks already written, by key, byte count and whether they hold strings.
     written: HashMap<([u8; 16], u64, bool), Child>,
     metadata: String,
-    /// A reused buffer for small samples.
-    buf: Vec<u8>,
 }
 
 impl<W: Write + Seek> Archive<W> {
@@ -174,7 +172,6 @@ impl<W: Write + Seek> Archive<W> {
             samplings: Vec::new(),
             written: HashMap::new(),
             metadata,
-            buf: Vec::new(),
         })
     }
 
@@ -278,8 +275,8 @@ impl<W: Write + Seek> Archive<W> {
         self.set_with(id, k, bytes.len() as u64, points, |o| o.write_raw(bytes))
     }
 
-    /// Sets the next sample of `id` to `bytes` little-endian values (`f32`, `i32`...), the
-    /// values converted into a reused buffer.
+    /// Sets the next sample of `id` to `values` as little-endian bytes (`f32`, `i32`...),
+    /// `extent` values per element.
     pub fn set_values<T: Copy, const N: usize>(
         &mut self,
         id: PropId,
@@ -287,14 +284,11 @@ impl<W: Write + Seek> Archive<W> {
         extent: usize,
         to_le: impl Fn(T) -> [u8; N],
     ) -> io::Result<()> {
-        let mut buf = std::mem::take(&mut self.buf);
-        buf.clear();
+        let mut buf = Vec::with_capacity(N * values.len());
         for &v in values {
             buf.extend_from_slice(&to_le(v));
         }
-        let r = self.set(id, &buf, (values.len() / extent.max(1)) as u64);
-        self.buf = buf;
-        r
+        self.set(id, &buf, (values.len() / extent.max(1)) as u64)
     }
 
     /// Sets the next sample of a string scalar `id` to `s` (stored with a terminating zero
