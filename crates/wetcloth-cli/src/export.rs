@@ -17,7 +17,7 @@ pub struct ExportArgs {
     pub run_dir: PathBuf,
 
     /// Cache format: pc2 (Blender, 3ds Max), mdd (Houdini, Blender, LightWave), usda (USD
-    /// text) or usdc (USD binary).
+    /// text), usdc (USD binary) or abc (Alembic: Maya, Houdini, Blender, Cinema 4D, Unreal).
     #[arg(long, short, value_name = "FORMAT", value_parser = parse_format)]
     pub format: CacheFormat,
 

@@ -70,7 +70,7 @@ pub struct RunArgs {
     pub resume: Option<PathBuf>,
 
     /// Also write these caches when the run completes, as `wetcloth export` does: a comma list
-    /// of pc2, mdd, usda, usdc (e.g. `usdc,pc2`), each to DIR/<scene name>.<extension>.
+    /// of pc2, mdd, usda, usdc, abc (e.g. `usdc,pc2`), each to DIR/<scene name>.<extension>.
     #[arg(long, value_name = "FORMATS", value_parser = crate::export::parse_format_list)]
     pub export: Option<crate::export::FormatList>,
 }

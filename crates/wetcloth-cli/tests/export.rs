@@ -1,6 +1,7 @@
 //! `wetcloth export` and `wetcloth run --export` end to end: the files, their bytes against the
 //! frames, errors and exit codes, and the programs that read the caches: USD (`usd-core`,
-//! `tools/usd_check.py`) and Blender (`tools/blender_cache_check.py`).
+//! `tools/usd_check.py`), Alembic (`alembic3d`, `tools/abc_check.py`) and Blender
+//! (`tools/blender_cache_check.py`).
 //!
 //! The reader tests skip with a message when the reader is not installed, and fail instead when
 //! `WETCLOTH_REQUIRE_TOOLS=1` (as CI sets it). Python is `python3`, or `WETCLOTH_PYTHON`.
@@ -235,18 +236,22 @@ fn a_bad_format_list_is_refused_before_running() {
         "--out",
         dir.join("run").to_str().unwrap(),
         "--export",
-        "usdc,abc",
+        "usdc,fbx",
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(
-        text(&o).contains("unknown cache format `abc`"),
+        text(&o).contains("unknown cache format `fbx`"),
         "{}",
         text(&o)
     );
     assert!(!dir.join("run").exists(), "nothing ran");
-    let o = wetcloth(&["export", dir.to_str().unwrap(), "--format", "abc"]);
+    let o = wetcloth(&["export", dir.to_str().unwrap(), "--format", "fbx"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("pc2, mdd, usda, usdc"), "{}", text(&o));
+    assert!(
+        text(&o).contains("pc2, mdd, usda, usdc, abc"),
+        "{}",
+        text(&o)
+    );
 }
 
 /// Runs `wetcloth export` on a damaged copy of `run` and returns its output, checking exit 2.
@@ -382,6 +387,99 @@ fn usd_reads_both_usd_files_as_the_frames_and_finds_them_compliant() {
     assert!(t.contains("USD check passed"), "{t}");
     assert!(t.contains("2 files hold the same layer data"), "{t}");
     assert!(t.contains("0 errors, 0 failed checks"), "{t}");
+}
+
+/// The small pinch with moving colliders: the sphere slides along x, the box rises and turns
+/// about y and z (its keys' rotations), the plane stays: 11 frames at 40 per second.
+const MOVING: &str = r#"
+name = "moving-pinch"
+[simulation]
+duration = 0.25
+frame_rate = 40
+[cloth]
+resolution = [8, 8]
+damping = 2.0
+[air]
+trapped_air = 0.0
+[[collider]]
+shape = "plane"
+friction = 0.6
+[[collider]]
+shape = "sphere"
+center = [0.3, 0.1, 0.0]
+radius = 0.05
+keys = [{ time = 0.0, offset = [0, 0, 0] }, { time = 0.25, offset = [0.1, 0, 0] }]
+[[collider]]
+shape = "box"
+center = [-0.3, 0.05, 0.1]
+half_extents = [0.05, 0.05, 0.1]
+keys = [
+  { time = 0.05, offset = [0, 0, 0] },
+  { time = 0.2, offset = [0, 0.02, 0], rotation = [0, 30, 10] },
+]
+[[grab]]
+particle = [4, 4]
+keys = [{ time = 0.05, offset = [0, 0, 0] }, { time = 0.2, offset = [0, 0.03, 0] }]
+"#;
+
+/// The reference Alembic library (`alembic3d`, its Python bindings) reads the archive as the
+/// frames: one PolyMesh with constant topology, rest.obj's faces (clockwise), the UVs, every
+/// frame's points as float32, the time sampling at the frame rate, the colliders where
+/// run.json puts them (the moving ones at every checked frame) and the scene's parameters.
+#[test]
+fn alembic_reads_the_archive_as_the_frames() {
+    let py = python();
+    let ok = Command::new(&py)
+        .args(["-c", "import alembic3d"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have(
+        ok,
+        &format!("`{py}` cannot import alembic3d (pip install alembic3d==1.8.12.1)"),
+    ) {
+        return;
+    }
+    let check = |run: &Path, file: &str| {
+        let o = Command::new(&py)
+            .arg(tools().join("abc_check.py"))
+            .arg(run)
+            .arg(run.join(file))
+            .output()
+            .unwrap();
+        let t = text(&o);
+        assert!(o.status.success(), "{t}");
+        assert!(t.contains("Alembic check passed"), "{t}");
+        t
+    };
+    let dir = scratch("abc-moving");
+    let moving = run(&dir, MOVING, &["--export", "abc"]);
+    let t = check(&moving, "moving-pinch.abc");
+    assert!(t.contains("sphere_1: moving, 11 transform samples"), "{t}");
+    assert!(t.contains("box_2: moving, 11 transform samples"), "{t}");
+    assert!(
+        t.contains("PolyMesh with 98 faces, 11 samples at 40 per second"),
+        "{t}"
+    );
+    // `export` writes the same bytes as `run --export`.
+    let again = dir.join("again.abc");
+    let o = wetcloth(&[
+        "export",
+        moving.to_str().unwrap(),
+        "-f",
+        "abc",
+        "-o",
+        again.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(fs::read(&again).unwrap() == fs::read(moving.join("moving-pinch.abc")).unwrap());
+
+    let dir = scratch("abc-drape");
+    let drape = run(&dir, DRAPE, &["--export", "abc"]);
+    let t = check(&drape, "drape-100.abc");
+    assert!(
+        t.contains("PolyMesh with 19602 faces, 100 samples at 500 per second"),
+        "{t}"
+    );
 }
 
 /// A 100 x 100 cloth dropped over a sphere: 100 frames (about 270 MB of output by the run's

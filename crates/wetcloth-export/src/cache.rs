@@ -9,8 +9,9 @@
 //! | `mdd` | [`MddWriter`](crate::MddWriter) | Blender, Houdini, LightWave, three.js |
 //! | `usda` | [`UsdaWriter`](crate::UsdaWriter) | anything with USD (text) |
 //! | `usdc` | [`UsdcWriter`](crate::UsdcWriter) | anything with USD (binary "crate" file) |
+//! | `abc` | [`AbcWriter`](crate::AbcWriter) | Maya, Houdini, Blender, Cinema 4D, Unreal (Alembic) |
 //!
-//! A new format (Alembic, say) is one more writer implementing [`CacheWriter`] and one more
+//! A new format is one more writer implementing [`CacheWriter`] and one more
 //! [`CacheFormat`] variant.
 
 use crate::RunInfo;
@@ -30,15 +31,18 @@ pub enum CacheFormat {
     Usda,
     /// USD stage in the binary crate format.
     Usdc,
+    /// Alembic archive (Ogawa).
+    Abc,
 }
 
 impl CacheFormat {
     /// Every format, in the order `--format` lists them.
-    pub const ALL: [CacheFormat; 4] = [
+    pub const ALL: [CacheFormat; 5] = [
         CacheFormat::Pc2,
         CacheFormat::Mdd,
         CacheFormat::Usda,
         CacheFormat::Usdc,
+        CacheFormat::Abc,
     ];
 
     /// The format's name on the command line, which is also its file extension.
@@ -48,6 +52,7 @@ impl CacheFormat {
             CacheFormat::Mdd => "mdd",
             CacheFormat::Usda => "usda",
             CacheFormat::Usdc => "usdc",
+            CacheFormat::Abc => "abc",
         }
     }
 
@@ -222,9 +227,9 @@ mod tests {
             CacheFormat::parse_list("usdc, pc2,usdc"),
             Ok(vec![CacheFormat::Usdc, CacheFormat::Pc2])
         );
-        let e = CacheFormat::parse_list("pc2,abc").unwrap_err();
+        let e = CacheFormat::parse_list("pc2,obj").unwrap_err();
         assert!(
-            e.contains("`abc`") && e.contains("pc2, mdd, usda, usdc"),
+            e.contains("`obj`") && e.contains("pc2, mdd, usda, usdc, abc"),
             "{e}"
         );
         assert!(CacheFormat::parse_list("pc2,").is_err());

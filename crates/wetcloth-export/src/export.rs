@@ -1,6 +1,7 @@
 //! Exporting a run folder to caches: read `run.json`, `scene.toml` and the frames one by one,
 //! feed every cache writer, and put each file in place when it is complete.
 
+use crate::abc::AbcWriter;
 use crate::cache::{CacheFormat, CacheSpec, CacheWriter, Frame};
 use crate::params::{SceneParam, scene_params};
 use crate::pointcache::{MddWriter, Pc2Writer};
@@ -259,6 +260,7 @@ fn open_writer(
         CacheFormat::Pc2 => Box::new(Pc2Writer::new(file, spec)?),
         CacheFormat::Mdd => Box::new(MddWriter::new(file, spec)?),
         CacheFormat::Usdc => Box::new(UsdcWriter::new(file, spec)?),
+        CacheFormat::Abc => Box::new(AbcWriter::new(file, spec)?),
         CacheFormat::Usda => Box::new(UsdaWriter::new(file, spec, |attr| {
             let mut s = path.as_os_str().to_owned();
             s.push(format!(".{attr}"));

@@ -10,9 +10,10 @@
 //! - [`RunInfo`] and [`write_run_json`]: `run.json`, what a renderer needs to know about the
 //!   run (the cloth's layout, the colliders, the grabbed particles, the frame count);
 //! - caches of a whole run for animation packages ([`cache`]): PC2 and MDD point caches
-//!   ([`Pc2Writer`], [`MddWriter`]) and USD stages ([`UsdaWriter`], [`UsdcWriter`]), each a
-//!   [`CacheWriter`] fed one frame at a time, and [`export_run`], which reads a run folder's
-//!   frames back ([`read_obj_frame`]) and writes the caches and `rest.obj`.
+//!   ([`Pc2Writer`], [`MddWriter`]), USD stages ([`UsdaWriter`], [`UsdcWriter`]) and Alembic
+//!   archives ([`AbcWriter`]), each a [`CacheWriter`] fed one frame at a time, and
+//!   [`export_run`], which reads a run folder's frames back ([`read_obj_frame`]) and writes
+//!   the caches and `rest.obj`.
 //!
 //! Files that must never be seen half written go through [`write_atomically`] (a temporary
 //! `NAME.part`, never followed if a stale link sits there, and a rename).
@@ -21,6 +22,7 @@
 //! (nothing is rounded), in scientific notation when very small or very large so that
 //! `1e-20` does not become twenty zeros.
 
+pub mod abc;
 mod atomic;
 pub mod cache;
 mod csv;
@@ -33,6 +35,7 @@ mod read;
 mod run_json;
 pub mod usd;
 
+pub use abc::AbcWriter;
 pub use atomic::{create_fresh, part_path, remove_if_present, write_atomically};
 pub use cache::{CacheFormat, CacheSpec, CacheWriter, Frame};
 pub use csv::{CSV_HEADER, MetricsCsv, POCKETS_CSV_HEADER, PocketsCsv, csv_header};

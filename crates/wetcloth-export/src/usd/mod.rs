@@ -407,22 +407,7 @@ fn collider_prim(k: usize, c: &Collider, cloth_size: f64, fps: f64) -> Prim {
 /// A Mesh prim: one quad of half side `half` centred on `point`, facing `normal`.
 fn plane_quad(name: &str, point: [f64; 3], normal: [f64; 3], half: f64) -> Prim {
     let n = normalize(normal);
-    // A tangent: the cross product of the normal with the axis it is least aligned with.
-    let axis = if n[0].abs() <= n[1].abs() && n[0].abs() <= n[2].abs() {
-        [1.0, 0.0, 0.0]
-    } else if n[1].abs() <= n[2].abs() {
-        [0.0, 1.0, 0.0]
-    } else {
-        [0.0, 0.0, 1.0]
-    };
-    let u = normalize(cross(n, axis));
-    let v = cross(n, u);
-    // Counter-clockwise seen from the normal's side: u, v, n is right-handed.
-    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
-    let points: Vec<[f32; 3]> = corners
-        .iter()
-        .map(|(a, b)| std::array::from_fn(|i| (point[i] + half * (a * u[i] + b * v[i])) as f32))
-        .collect();
+    let points = plane_corners(point, normal, half);
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     for p in &points {
@@ -442,6 +427,29 @@ fn plane_quad(name: &str, point: [f64; 3], normal: [f64; 3], half: f64) -> Prim 
         Attr::new("subdivisionScheme", "token", Value::Token("none".into())).uniform(),
     ];
     p
+}
+
+/// The corners of a square of half side `half` (m) centred on `point` in the plane through
+/// it with normal `normal`, counter-clockwise seen from the normal's side (the quad that
+/// stands for a plane collider).
+pub(crate) fn plane_corners(point: [f64; 3], normal: [f64; 3], half: f64) -> Vec<[f32; 3]> {
+    let n = normalize(normal);
+    // A tangent: the cross product of the normal with the axis it is least aligned with.
+    let axis = if n[0].abs() <= n[1].abs() && n[0].abs() <= n[2].abs() {
+        [1.0, 0.0, 0.0]
+    } else if n[1].abs() <= n[2].abs() {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let u = normalize(cross(n, axis));
+    let v = cross(n, u);
+    // Counter-clockwise seen from the normal's side: u, v, n is right-handed.
+    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    corners
+        .iter()
+        .map(|(a, b)| std::array::from_fn(|i| (point[i] + half * (a * u[i] + b * v[i])) as f32))
+        .collect()
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
