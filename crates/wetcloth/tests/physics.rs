@@ -778,4 +778,3 @@ fn implicit_passes_over_the_pool_give_the_same_bits_on_any_thread_count() {
     assert_eq!(one, state(2));
     assert_eq!(one, state(4));
 }
-

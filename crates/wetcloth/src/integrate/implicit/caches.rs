@@ -64,6 +64,8 @@ pub(super) enum Change {
     Matrix,
     /// Particle `k`'s constraint (and with it its row's drag) changed.
     Row(usize),
+    /// Every row's diagonal was taken anew (after [`Change::Matrix`]).
+    AllRows,
     /// Springs went onto their strain limit's stiff branch: the next step linearises all anew.
     Stiffened,
     /// The multigrid hierarchy was built from the matrix as it is.
@@ -98,6 +100,7 @@ impl Kept {
                     self.av_rows.push(k as u32);
                 }
             }
+            Change::AllRows => self.mg_built = false,
             Change::Stiffened => self.lin_fresh = false,
             Change::MultigridBuilt => self.mg_built = true,
         }
