@@ -17,6 +17,7 @@
 
 pub mod camera;
 mod error;
+mod font;
 pub mod mesh;
 mod offscreen;
 pub mod plot;
@@ -25,12 +26,10 @@ mod run;
 
 pub use camera::Camera;
 pub use error::RenderError;
-pub use mesh::{Solid, collider_scene, smooth_normals, tented_grid};
+pub use mesh::{GroundPlane, Solid, collider_scene, smooth_normals, tented_grid};
 pub use offscreen::{OFFSCREEN_DEPTH, OFFSCREEN_FORMAT, OFFSCREEN_SAMPLES, Offscreen};
 pub use plot::plot_run;
-pub use renderer::{
-    ClothRenderer, GroundPlane, KEY_LIGHT_DIR, Material, MeshView, SceneView, srgb_to_linear,
-};
+pub use renderer::{ClothRenderer, KEY_LIGHT_DIR, Material, MeshView, SceneView, srgb_to_linear};
 pub use run::{
     CameraSpec, FrameSelection, ImageSize, ObjMesh, PocketPressures, RenderOptions, RenderSummary,
     RunCheck, RunInfo, VideoOutcome, check_run, draw_legend, ffmpeg_available, list_frames,

@@ -1,6 +1,5 @@
 //! CPU-side mesh helpers: smooth normals, and triangle meshes for the scene's solid colliders.
 
-use crate::renderer::GroundPlane;
 use glam::Vec3;
 use wetcloth::{Collider, Surface, SurfaceMesh};
 
@@ -66,6 +65,26 @@ impl Solid {
                 .map(|(p, n)| [*p, *n]),
         );
         indices.extend(self.indices.iter().map(|i| base + i));
+    }
+}
+
+/// The table: an infinite plane in the simulation, drawn as a large finite quad that fades
+/// into the backdrop.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GroundPlane {
+    /// A point of the plane, m.
+    pub point: [f32; 3],
+    /// The plane's normal (the side the cloth lies on); need not be unit.
+    pub normal: [f32; 3],
+}
+
+impl Default for GroundPlane {
+    /// The plane y = 0, facing up.
+    fn default() -> Self {
+        Self {
+            point: [0.0; 3],
+            normal: [0.0, 1.0, 0.0],
+        }
     }
 }
 

@@ -5,7 +5,6 @@
 //! fontconfig or system font is needed.
 
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 
 use plotters::prelude::*;
 
@@ -219,16 +218,6 @@ pub fn plot_size() -> (u32, u32) {
     )
 }
 
-static FONT: Once = Once::new();
-
-pub(crate) fn register_font() {
-    FONT.call_once(|| {
-        let bytes: &'static [u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
-        // The bundled font is known to parse; a failure would show as missing text only.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
-    });
-}
-
 /// Largest magnitude an axis reaches: values beyond it are drawn at its edge. Far beyond
 /// anything a run writes, and small enough that an axis' span and its tick steps stay finite.
 const AXIS_LIMIT: f64 = 1e300;
@@ -279,7 +268,7 @@ fn time_range(t: &[f64]) -> (f64, f64) {
 
 /// Draws `metrics` as stacked panels into an RGB image with `title` on top.
 pub fn draw_metrics(metrics: &Metrics, title: &str) -> Result<image::RgbImage, RenderError> {
-    register_font();
+    crate::font::register_font();
     let (w, h) = plot_size();
     let mut buf = vec![255u8; (w * h * 3) as usize];
     let plot_err = |e: &dyn std::fmt::Display| RenderError::Plot(e.to_string());

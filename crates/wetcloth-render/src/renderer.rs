@@ -8,7 +8,7 @@ use glam::Vec3;
 use wgpu::util::DeviceExt;
 
 use crate::camera::Camera;
-use crate::mesh::{Solid, bounds_of, smooth_normals};
+use crate::mesh::{GroundPlane, Solid, bounds_of, smooth_normals};
 
 /// A triangle mesh to draw: positions, per-vertex normals and triangle indices (in threes,
 /// front side where `(p1 - p0) x (p2 - p0)` points). When `normals` does not have one entry per
@@ -21,26 +21,6 @@ pub struct MeshView<'a> {
     pub normals: &'a [[f32; 3]],
     /// Triangle vertex indices, three per triangle.
     pub indices: &'a [u32],
-}
-
-/// The table: an infinite plane in the simulation, drawn as a large finite quad that fades
-/// into the backdrop.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GroundPlane {
-    /// A point of the plane, m.
-    pub point: [f32; 3],
-    /// The plane's normal (the side the cloth lies on); need not be unit.
-    pub normal: [f32; 3],
-}
-
-impl Default for GroundPlane {
-    /// The plane y = 0, facing up.
-    fn default() -> Self {
-        Self {
-            point: [0.0; 3],
-            normal: [0.0, 1.0, 0.0],
-        }
-    }
 }
 
 /// Everything one frame shows. Particle indices (`highlight`, `pinned`) refer to `particles`

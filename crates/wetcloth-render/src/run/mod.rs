@@ -29,9 +29,10 @@ pub use video::ffmpeg_available;
 
 use crate::camera::Camera;
 use crate::error::RenderError;
+use crate::mesh::GroundPlane;
 use crate::mesh::{collider_scene, smooth_normals};
 use crate::offscreen::Offscreen;
-use crate::renderer::{GroundPlane, MeshView, SceneView};
+use crate::renderer::{MeshView, SceneView};
 use input::FrameCheck;
 use video::Encoder;
 

@@ -276,7 +276,7 @@ pub fn draw_legend(
     }
     let mut rgb = image::DynamicImage::ImageRgba8(std::mem::take(img)).into_rgb8();
     {
-        crate::plot::register_font();
+        crate::font::register_font();
         let root = BitMapBackend::with_buffer(rgb.as_mut(), (w, h)).into_drawing_area();
         let plot_err = |e: &dyn std::fmt::Display| RenderError::Plot(e.to_string());
         // A pale panel behind the bar keeps the labels readable on any background.
