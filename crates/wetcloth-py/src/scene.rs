@@ -101,12 +101,15 @@ impl Scene {
         format!("Scene({:?})", self.inner.name)
     }
 
-    /// Pickling (Dask sends scenes to its workers): the resolved text and the label.
+    /// Pickling (Dask sends scenes to its workers): the resolved text and the label, made
+    /// absolute so that mesh files are found from a worker's own folder.
     fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyTuple>> {
         let py = slf.py();
         let this = slf.borrow();
+        let label = std::path::absolute(&this.label)
+            .map_or_else(|_| this.label.clone(), |p| p.display().to_string());
         let ctor = py.get_type::<Scene>().getattr("from_toml")?;
-        (ctor, (this.inner.to_toml(), this.label.clone())).into_pyobject(py)
+        (ctor, (this.inner.to_toml(), label)).into_pyobject(py)
     }
 }
 
