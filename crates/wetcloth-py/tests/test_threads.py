@@ -72,12 +72,18 @@ def test_two_simulations_take_well_under_twice_one() -> None:
     probe.step(500)
     steps = max(500, int(500 * 0.6 / (time.perf_counter() - t0)))
     tries = []
-    for _ in range(3):  # the machine is shared: take the best of three
+    for _ in range(5):  # the machine may be shared: take the best of five
         one, _ = timed([wetcloth.Simulation(scene)], steps)
         two, cpu = timed([wetcloth.Simulation(scene), wetcloth.Simulation(scene)], steps)
-        tries.append((two / one, cpu / two))
+        tries.append((round(two / one, 2), round(cpu / two, 2)))
         # Two threads at once: under 1.6 times one's wall time, or the CPU time of more than
         # 1.4 cores in that wall time (both impossible while one thread holds the GIL).
         if two < 1.6 * one or cpu > 1.4 * two:
             return
-    raise AssertionError(f"(two/one wall, cores busy) per try: {tries}")
+    message = f"(two/one wall time, cores busy) per try: {tries}"
+    if not os.environ.get("CI") and max(c for _, c in tries) < 1.0:
+        # Not even one core's worth of CPU time for two busy threads: other programs hold
+        # this machine's cores (a developer's machine; CI runs alone). The overlap test above
+        # still shows the GIL released.
+        pytest.skip(f"no second core free: {message}")
+    raise AssertionError(message)
