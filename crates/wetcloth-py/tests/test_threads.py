@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 
@@ -73,17 +72,17 @@ def test_two_simulations_take_well_under_twice_one() -> None:
     steps = max(500, int(500 * 0.6 / (time.perf_counter() - t0)))
     tries = []
     for _ in range(5):  # the machine may be shared: take the best of five
-        one, _ = timed([wetcloth.Simulation(scene)], steps)
-        two, cpu = timed([wetcloth.Simulation(scene), wetcloth.Simulation(scene)], steps)
-        tries.append((round(two / one, 2), round(cpu / two, 2)))
+        one, cpu_one = timed([wetcloth.Simulation(scene)], steps)
+        two, cpu_two = timed([wetcloth.Simulation(scene), wetcloth.Simulation(scene)], steps)
+        tries.append((round(two / one, 2), round(cpu_one / one, 2), round(cpu_two / two, 2)))
         # Two threads at once: under 1.6 times one's wall time, or the CPU time of more than
         # 1.4 cores in that wall time (both impossible while one thread holds the GIL).
-        if two < 1.6 * one or cpu > 1.4 * two:
+        if two < 1.6 * one or cpu_two > 1.4 * two:
             return
-    message = f"(two/one wall time, cores busy) per try: {tries}"
-    if not os.environ.get("CI") and max(c for _, c in tries) < 1.0:
-        # Not even one core's worth of CPU time for two busy threads: other programs hold
-        # this machine's cores (a developer's machine; CI runs alone). The overlap test above
-        # still shows the GIL released.
-        pytest.skip(f"no second core free: {message}")
+    message = f"(two/one wall time, cores busy with one, with two) per try: {tries}"
+    if max(c for _, c, _ in tries) < 0.9:
+        # One thread alone never got a whole core: other programs hold this machine's cores,
+        # so there is no second core to show. (With the GIL held on an idle machine one thread
+        # gets its core, and the test fails.) The overlap test above holds either way.
+        pytest.skip(f"the machine is busy: {message}")
     raise AssertionError(message)
