@@ -121,9 +121,17 @@ def test_an_invalid_and_a_blowing_up_variant_are_rows() -> None:
             {"simulation.time_step": 2e-3},
             {"cloth.mass": 0.03},
         ],
+        measure=lambda run: {
+            "frames_written": run.frames_written,
+            "height": run.frame(run.frames_written - 1)[:, 1].max(),
+        },
         progress=False,
     )
     assert list(rows["status"]) == ["complete", "invalid", "failed", "complete"]
+    # measure's columns come last, for the runs that ran, the failed one included.
+    assert list(rows.columns[-2:]) == ["frames_written", "height"]
+    assert list(rows["frames_written"].fillna(-1)) == [5, -1, 1, 5]
+    assert rows.iloc[0]["height"] == rows.iloc[0]["max_height"]
     invalid, failed = rows.iloc[1], rows.iloc[2]
     assert invalid["message"].startswith("set cloth.mass: cloth.mass = -1 is out of range")
     assert all(math.isnan(invalid[name]) for name in METRICS)

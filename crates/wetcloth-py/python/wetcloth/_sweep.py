@@ -55,7 +55,11 @@ def run_variant(
             row["pocket_count"] = int(row["pocket_count"])
         row.update(peak_grab_force=r.peak_grab_force, status=r.status, message=r.message)
         if measure is not None:
-            row.update(measure(r))
+            try:
+                row.update(measure(r))
+            except Exception as e:  # the run stands; the row says what measure did
+                note = f"measure raised {e!r}"
+                row["message"] = f"{row['message']}\n  {note}" if row["message"] else note
     row["wall_time"] = time.perf_counter() - started
     return row
 
@@ -89,8 +93,9 @@ def sweep(
     Columns: each varied key (dotted name), the metrics.csv columns of the last frame written,
     ``peak_grab_force`` (N, the largest grab_force written), ``status`` (``complete``,
     ``failed`` for a blow-up, ``invalid`` for a refused value), ``message`` (the command line's
-    message for the last two, else empty), ``wall_time`` (s), then ``measure``'s. A bad run is a
-    row, never an exception.
+    message for the last two, else empty), ``wall_time`` (s), then ``measure``'s, called for
+    every run that ran (complete or failed; an exception it raises is noted in ``message``).
+    A bad run is a row, never an exception.
     """
     import pandas as pd
     from dask.distributed import Client, LocalCluster
