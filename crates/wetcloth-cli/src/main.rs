@@ -14,6 +14,7 @@ mod interrupt;
 mod pocket_labels;
 mod render;
 mod run;
+mod sweep;
 mod threads;
 mod view;
 
@@ -56,6 +57,9 @@ enum Command {
     Export(export::ExportArgs),
     /// Open the interactive demo window: pull the wet cloth off the table with the mouse.
     View(view::ViewArgs),
+    /// Run every combination of some scene keys' values on Dask (a local cluster, or a
+    /// scheduler's) and write one CSV row per run; needs the `wetcloth` Python package.
+    Sweep(sweep::SweepArgs),
 }
 
 fn main() -> ExitCode {
@@ -92,7 +96,7 @@ fn dispatch(mut cli: Cli) -> Result<(), CliError> {
                 args.threads.get_or_insert_with(|| vec![n as u32]);
             }
         }
-        Command::Render(_) | Command::Plot(_) | Command::Export(_) => {}
+        Command::Render(_) | Command::Plot(_) | Command::Export(_) | Command::Sweep(_) => {}
     }
     match &cli.command {
         Command::Run(args) => run::run(args, cli.quiet),
@@ -101,5 +105,6 @@ fn dispatch(mut cli: Cli) -> Result<(), CliError> {
         Command::Plot(args) => render::plot(args, cli.quiet),
         Command::Export(args) => export::export(args, cli.quiet),
         Command::View(args) => view::view(args),
+        Command::Sweep(args) => sweep::sweep(args, cli.quiet),
     }
 }

@@ -23,7 +23,7 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use wetcloth::metrics::COLUMNS;
-use wetcloth::{Real, SimConfig, Simulation};
+use wetcloth::{Real, Simulation};
 use wetcloth_export::{
     MetricsCsv, PocketsCsv, RunInfo, RunStatus, create_fresh, frame_file_name, is_frame_file_name,
     write_atomically, write_obj,
@@ -66,8 +66,15 @@ pub struct RunArgs {
     /// count. A SCENE given too must be the run's scene. Refused (exit 2, naming the file)
     /// when DIR holds no checkpoint or a complete run, when its scene.toml was changed, or
     /// when the checkpoint is damaged.
-    #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "force"])]
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["out", "force", "set"])]
     pub resume: Option<PathBuf>,
+
+    /// Override one key of the scene for this run (repeatable, applied in order): KEY is a
+    /// dotted key path (`cloth.mass`, `air.trapped_air`, `collider.0.friction`), VALUE is in TOML
+    /// syntax (`0.05`, `[0.2,0.2]`, `true`), a bare word taken as a string
+    /// (`--set air.model=pockets`). Checked as the scene file is; the resolved scene.toml has it.
+    #[arg(long, value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 
     /// Also write these caches when the run completes, as `wetcloth export` does: a comma list
     /// of pc2, mdd, usda, usdc, abc (e.g. `usdc,pc2`), each to DIR/<scene name>.<extension>.
@@ -78,34 +85,8 @@ pub struct RunArgs {
 /// Units of the metrics columns, for the summary.
 const UNITS: [&str; 9] = ["s", "m^3", "Pa", "J", "", "", "m", "N", "m^3"];
 
-/// Relative tolerance when counting frames, so that `duration * frame_rate` a hair below an
-/// integer by round-off (0.29 * 100 = 28.999999999999996) still counts that last frame.
-const FRAME_COUNT_TOLERANCE: Real = 1e-12;
-
-/// Index of the last frame: `floor(duration * frame_rate)`, up to round-off.
-pub fn last_frame(config: &SimConfig) -> u64 {
-    let x = config.simulation.duration * config.simulation.frame_rate;
-    (x * (1.0 + FRAME_COUNT_TOLERANCE)).floor() as u64
-}
-
-/// The step at which frame `k` is written: the first step count `n` with `n * dt >= k / rate`,
-/// computed from integers so that no time is accumulated. A step that misses the frame time by
-/// round-off only (600 steps of 1/12000 s is 0.049999999999999996 s, not 0.05) counts as on it,
-/// so frames stay evenly spaced in steps.
-pub fn frame_step(k: u64, frame_rate: Real, dt: Real) -> u64 {
-    let t = k as Real / frame_rate - STEP_TOLERANCE * dt;
-    let mut n = (t / dt).ceil().max(0.0) as u64;
-    while n > 0 && (n - 1) as Real * dt >= t {
-        n -= 1;
-    }
-    while (n as Real) * dt < t {
-        n += 1;
-    }
-    n
-}
-
-/// Fraction of a step by which a step time may fall short of a frame time and still count.
-const STEP_TOLERANCE: Real = 1e-6;
+// Frame timing lives with the run folder's format, where the Python package's runs find it too.
+pub use wetcloth_export::{frame_step, last_frame};
 
 /// Wall-clock time one call to `Simulation::advance` aims at, s: short enough that Ctrl-C and
 /// the progress bar answer at once, long enough that the calls cost nothing.
@@ -162,10 +143,18 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
     if let Some(dir) = &args.resume {
         return resume(args, dir, quiet);
     }
-    let scene = match &args.scene {
+    let mut scene = match &args.scene {
         Some(path) => wetcloth_scene::load(path)?,
         None => Scene::thesis_demo(),
     };
+    for pair in &args.set {
+        let Some((key, value)) = pair.split_once('=') else {
+            return Err(CliError::Usage(format!(
+                "--set {pair}: expected KEY=VALUE, e.g. --set cloth.mass=0.05"
+            )));
+        };
+        scene.set(key.trim(), wetcloth_scene::parse_value(value))?;
+    }
     let dir = args
         .out
         .clone()
@@ -752,6 +741,7 @@ fn human(v: Real) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wetcloth::SimConfig;
 
     #[test]
     fn frames_fall_on_the_first_step_at_or_after_their_time() {

@@ -33,6 +33,7 @@ mod params;
 pub mod pointcache;
 mod read;
 mod run_json;
+mod timing;
 pub mod usd;
 
 pub use abc::AbcWriter;
@@ -51,6 +52,7 @@ pub use params::{ParamValue, SceneParam, scene_params};
 pub use pointcache::{MddWriter, PC2_SIGNATURE, Pc2Writer};
 pub use read::{FrameBuffers, FrameError, read_obj_frame};
 pub use run_json::{RunInfo, RunStatus, write_run_json, write_run_json_file};
+pub use timing::{frame_step, last_frame, step_at};
 pub use usd::{PLANE_HALF_SIDE, PLANE_MIN_HALF_SIDE, UsdaWriter, UsdcWriter};
 
 /// `v` as the shortest decimal text that parses back to the same value (Rust's `{:?}`

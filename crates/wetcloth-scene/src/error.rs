@@ -195,6 +195,32 @@ impl SceneError {
         }
     }
 
+    /// The same error, said to come from `at` instead of where it was found (errors in a
+    /// scene rewritten by [`crate::Scene::set`] are placed at the change, not at a line of the
+    /// rewritten text). A read error keeps its path.
+    pub fn placed(mut self, place: Location) -> Self {
+        match &mut self {
+            SceneError::Read { .. } => {}
+            SceneError::Syntax { at, .. }
+            | SceneError::UnknownKey { at, .. }
+            | SceneError::WrongType { at, .. }
+            | SceneError::Missing { at, .. }
+            | SceneError::OutOfRange { at, .. }
+            | SceneError::Invalid { at, .. } => **at = place,
+        }
+        self
+    }
+
+    /// The value the error is about, as written, if any.
+    pub fn value(&self) -> Option<&str> {
+        match self {
+            SceneError::WrongType { value, .. }
+            | SceneError::OutOfRange { value, .. }
+            | SceneError::Invalid { value, .. } => Some(value),
+            _ => None,
+        }
+    }
+
     /// The key path the error is about, if any.
     pub fn key(&self) -> Option<&str> {
         match self {

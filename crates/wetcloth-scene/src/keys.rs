@@ -382,3 +382,86 @@ fn candidates(table: &DeTable<'_>, path: &str, offset: usize, best: &mut Option<
         }
     }
 }
+
+/// One step of a key path given to [`crate::Scene::set`]: a key, or an index into an array.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// A key of a table.
+    Key(String),
+    /// An index into an array (of tables or of numbers), from 0.
+    Index(usize),
+}
+
+/// Why a key path given to [`crate::Scene::set`] or [`crate::Scene::get`] names nothing.
+pub enum PathError {
+    /// A key the format does not have at that place.
+    Unknown(Unknown),
+    /// A path that is not written as one (`cloth..mass`, `cloth.mass.x`, `collider[a]`).
+    Malformed(String),
+}
+
+/// Splits a key path into steps and checks every key against the format. Both spellings of an
+/// index work: `collider.0.friction` and `collider[0].friction`. Returns the steps and the
+/// path as the format writes it (`collider[0].friction`).
+pub fn parse_path(path: &str) -> Result<(Vec<Step>, String), PathError> {
+    let malformed = |why: &str| PathError::Malformed(format!("key path `{path}`: {why}"));
+    let mut steps = Vec::new();
+    for seg in path.split('.') {
+        let (name, index) = match seg.split_once('[') {
+            Some((k, rest)) => {
+                let i = rest
+                    .strip_suffix(']')
+                    .and_then(|i| i.parse::<usize>().ok())
+                    .ok_or_else(|| malformed("an index is written [N] or .N, N from 0"))?;
+                (k, Some(i))
+            }
+            None => (seg, None),
+        };
+        if name.is_empty() && index.is_none() {
+            return Err(malformed("an empty key (two dots, or a dot at an end)"));
+        }
+        match name.parse::<usize>() {
+            Ok(i) if index.is_none() => steps.push(Step::Index(i)),
+            _ if name.is_empty() => {}
+            _ => steps.push(Step::Key(name.to_string())),
+        }
+        if let Some(i) = index {
+            steps.push(Step::Index(i));
+        }
+    }
+    // Check each key at its place; `place` is None inside a value (a number, an array of
+    // numbers), where no key can follow.
+    let mut place = Some(Place::Top);
+    let mut written = String::new();
+    for step in &steps {
+        match step {
+            Step::Key(k) => {
+                let Some(p) = place else {
+                    return Err(malformed(&format!(
+                        "`{written}` holds a value, not a table, so it has no key `{k}`"
+                    )));
+                };
+                if !written.is_empty() {
+                    written.push('.');
+                }
+                written.push_str(k);
+                if !p.keys().contains(&k.as_str()) {
+                    return Err(PathError::Unknown(Unknown {
+                        key: written,
+                        span: 0..0,
+                        suggestion: suggest(k, p.keys()),
+                        valid: p.keys(),
+                    }));
+                }
+                place = p.child(k);
+            }
+            Step::Index(i) => {
+                if written.is_empty() {
+                    return Err(malformed("a path starts with a key, not an index"));
+                }
+                written.push_str(&format!("[{i}]"));
+            }
+        }
+    }
+    Ok((steps, written))
+}

@@ -26,10 +26,12 @@ mod error;
 mod keys;
 pub mod obj;
 mod raw;
+mod set;
 mod start;
 mod write;
 
 pub use error::{Location, SceneError};
+pub use set::parse_value;
 pub use write::to_toml;
 
 use std::path::Path;
