@@ -124,8 +124,8 @@ pub fn estimate(config: &SimConfig, threads: usize) -> Estimate {
     let [nx, nz] = cloth.resolution;
     let n = (nx * nz) as u64;
     let grid = Grid::new(cloth);
-    let frames = crate::run::last_frame(config) + 1;
-    let steps = crate::run::frame_step(
+    let frames = wetcloth_export::last_frame(config) + 1;
+    let steps = wetcloth_export::frame_step(
         frames - 1,
         config.simulation.frame_rate,
         config.simulation.time_step,
