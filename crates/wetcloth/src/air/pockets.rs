@@ -15,8 +15,9 @@
 //! the air cells form connected regions (union-find, each step, linear cost). A region that
 //! reaches the cloth's border across an edge with an unsealed particle is **open**: at
 //! atmospheric pressure, no force. Every other region is a **sealed pocket** `k` with its amount
-//! of air `N_k` (m^3 at atmospheric pressure), its volume `V_k` (eq. 3.10 over its cells) and
-//! its pressure `P_k = P_a N_k / V_k` (Boyle).
+//! of air `N_k` (m^3 at atmospheric pressure), its volume `V_k` (eq. 3.10 over its cells, a
+//! cell of negative signed volume, its cloth below the surface or wound the other way, counting
+//! as no room) and its pressure `P_k = P_a N_k / V_k` (Boyle).
 //!
 //! # Events conserve air
 //!
@@ -597,7 +598,8 @@ impl Pockets {
         }
         for (c, &q) in self.cell_pocket.iter().enumerate() {
             if q != NONE {
-                self.pockets[q as usize].volume += self.cell_volume[c];
+                // A cell's room for air: none where its signed volume is negative.
+                self.pockets[q as usize].volume += self.cell_volume[c].max(0.0);
             }
         }
     }
@@ -704,7 +706,7 @@ impl Pockets {
                 continue;
             }
             let (i, j) = (c % m, c / m);
-            volume[r as usize] += self.cell_volume[j * m + i];
+            volume[r as usize] += self.cell_volume[j * m + i].max(0.0);
             count[r as usize] += 1;
             let k = j * nx + i;
             kappa[r as usize] += 0.25
