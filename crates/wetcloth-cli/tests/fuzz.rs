@@ -632,6 +632,12 @@ fn tally(scene: &str, code: usize, err: &str) {
     if code > 2 {
         return;
     }
+    // Every thousand runs, the counts so far (a long campaign cut short still reports).
+    let done: u64 = t.0.iter().map(|row| row[0]).sum::<u64>() + 1;
+    if done.is_multiple_of(1000) {
+        let so_far: Vec<u64> = t.0.iter().map(|row| row[0]).collect();
+        eprintln!("fuzz: {done} runs so far, by exit status 0, 1, 2: {so_far:?} (before this one)");
+    }
     t.0[code][0] += 1;
     for (k, feature) in FEATURES.iter().enumerate() {
         if scene.contains(feature) {

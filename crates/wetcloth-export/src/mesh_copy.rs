@@ -190,13 +190,25 @@ pub fn read_colliders(dir: &Path, colliders: &serde_json::Value) -> Result<Vec<C
 pub fn read_run_json(dir: &Path, text: &str) -> Result<RunInfo, String> {
     let json = dir.join("run.json");
     let json = json.display();
-    let mut value: serde_json::Value = serde_json::from_str(text).map_err(|e| {
+    let at_line = |e: serde_json::Error| {
         format!(
             "{json}:{}:{}: not a wetcloth run.json: {e}",
             e.line(),
             e.column()
         )
-    })?;
+    };
+    let mut value: serde_json::Value = serde_json::from_str(text).map_err(at_line)?;
+    let by_reference = value
+        .get("colliders")
+        .and_then(|c| c.as_array())
+        .is_some_and(|list| {
+            list.iter()
+                .any(|c| c.get("copy").is_some() && c.get("triangles").is_none())
+        });
+    if !by_reference {
+        // Read from the text, so that an error names its line.
+        return serde_json::from_str(text).map_err(at_line);
+    }
     let colliders = match value.get_mut("colliders") {
         Some(c) => read_colliders(dir, &std::mem::take(c)).map_err(|e| format!("{json}: {e}"))?,
         None => Vec::new(),
