@@ -588,7 +588,7 @@ impl Simulation {
         self.finish_measures_at(t_next, dt)
     }
 
-    /// The energy and reach audit of [`crate::checks`] ([`EnergyAudit::check`]) on the current
+    /// The energy and reach audit of [`crate::checks`] (`EnergyAudit::check`) on the current
     /// state, now: `Err` if the cloth has more mechanical energy than the hands, the moving
     /// colliders, the air and the water film can have given it since the audit started, or a
     /// particle is farther than anything can have carried it.
