@@ -30,7 +30,7 @@ use wetcloth::{CHECKPOINT_VERSION, Checkpoint, Real};
 pub const FILE_NAME: &str = "checkpoint.bin";
 
 /// Version of the file layout.
-pub const FORMAT: u32 = 1;
+pub const FORMAT: u32 = 2;
 
 const MAGIC: &[u8; 8] = b"WCLOTHCK";
 const HEADER: usize = 8 + 4 + 4 + 8 + 4;
@@ -49,6 +49,10 @@ pub struct Saved {
     pub frame_time: Real,
     /// Byte length of each file the run appends to (name in the run folder, length).
     pub appended: Vec<(String, u64)>,
+    /// The files the run read besides its scene, each with the digest of what it read: every
+    /// mesh collider's file with [`wetcloth::collide::Mesh::digest`] (its vertices and
+    /// triangles as read). A resumed run refuses inputs that changed.
+    pub inputs: Vec<(String, u64)>,
     /// The simulation.
     pub sim: Checkpoint,
 }
@@ -61,6 +65,19 @@ pub fn digest(bytes: &[u8]) -> u64 {
         h = h.wrapping_mul(0x0000_0100_0000_01b3);
     }
     h
+}
+
+/// The files `config` was read from besides its scene, with the digests of their contents
+/// (see [`Saved::inputs`]), in scene order.
+pub fn inputs(config: &wetcloth::SimConfig) -> Vec<(String, u64)> {
+    config
+        .colliders
+        .iter()
+        .filter_map(|c| match &c.shape {
+            wetcloth::Shape::Mesh(m) => Some((m.file.clone(), m.digest())),
+            _ => None,
+        })
+        .collect()
 }
 
 /// The file's path in `dir`.
@@ -180,6 +197,7 @@ mod tests {
             frames: 2,
             frame_time: 0.5,
             appended: vec![("metrics.csv".into(), 123)],
+            inputs: vec![("/scenes/plate.obj".into(), 42)],
             sim: sim.checkpoint(),
         }
     }

@@ -52,6 +52,13 @@ pub fn write_caches(
     quiet: bool,
 ) -> Result<(), CliError> {
     let folder = read_run_folder(run_dir).map_err(from_export)?;
+    // A cache of a run that did not complete is written all the same (exit 0), with a word.
+    if let Some(why) = wetcloth_export::incomplete(&folder.info) {
+        eprintln!(
+            "wetcloth: warning: {} is incomplete: {why}",
+            run_dir.display()
+        );
+    }
     let jobs: Vec<ExportJob> = formats
         .iter()
         .map(|(format, out)| ExportJob {

@@ -246,6 +246,23 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
         )));
     }
     let scene = wetcloth_scene::load(&scene_path)?;
+    // The files the run read besides its scene (meshes) must hold what they held.
+    let now = checkpoint::inputs(&scene.config);
+    for (k, (file, was)) in saved.inputs.iter().enumerate() {
+        match now.get(k) {
+            Some((f, d)) if f == file && d == was => {}
+            _ => {
+                return Err(CliError::Input(format!(
+                    "{file} changed since the run in {} started (the run read a mesh of digest \
+                     {was:016x}, the file now holds {}): a resumed run must read what the run \
+                     read; put the file back or run the scene again",
+                    dir.display(),
+                    now.get(k)
+                        .map_or("something else".into(), |(_, d)| format!("digest {d:016x}"))
+                )));
+            }
+        }
+    }
     if let Some(given) = &args.scene {
         let other = wetcloth_scene::load(given)?;
         if checkpoint::digest(other.to_toml().as_bytes()) != saved.scene_digest {
@@ -338,6 +355,7 @@ fn bake(
     let config = scene.config.clone();
     let dir = dir.to_path_buf();
     let dt = config.simulation.time_step;
+    let est_seconds = estimate::estimate(&config, rayon::current_num_threads()).seconds;
     let stable = config.stable_time_step();
     // The implicit integrator is made for steps above the explicit limit.
     if dt > stable && config.simulation.integrator == wetcloth::Integrator::Verlet {
@@ -356,6 +374,10 @@ fn bake(
     };
     let frames_dir = dir.join("frames");
     fs::create_dir_all(&frames_dir).map_err(CliError::output(&frames_dir))?;
+    // run.json names each mesh collider by a copy of the model beside it (it stays small
+    // however large the mesh, though rewritten after every frame).
+    wetcloth_export::write_mesh_copies(&dir, &config.colliders)
+        .map_err(CliError::output(dir.join("meshes")))?;
     // The last checkpoint written, for run.json.
     let mut note = start.resumed.map(|(_, _, n)| n);
     write_run_json(
@@ -457,6 +479,7 @@ fn bake(
                         ("metrics.csv".into(), csv_len(&csv_path)?),
                         ("pockets.csv".into(), csv_len(&pockets_path)?),
                     ],
+                    inputs: checkpoint::inputs(&config),
                     sim: sim.checkpoint(),
                 };
                 checkpoint::write(&dir, &saved)?;
@@ -469,6 +492,11 @@ fn bake(
             };
 
         let mut chunk = 1u64;
+        // The up-front estimate models the cloth's own cost; what it cannot see (a mesh whose
+        // faces reach everywhere, the implicit solve's iterations, many pockets) shows in the
+        // run's own rate: measured over its first second, and said once if the run will take
+        // more than a minute.
+        let mut pace = Pace::new(sim.step_count(), frame_step(last, rate, dt), est_seconds);
         for k in start.frames..=last {
             let target = frame_step(k, rate, dt);
             loop {
@@ -496,8 +524,22 @@ fn bake(
                     chunk = (chunk / 2).max(1);
                 }
                 progress.set_position(sim.step_count());
+                if let Some(line) = pace.check(sim.step_count()) {
+                    progress.suspend(|| {
+                        if !quiet {
+                            eprintln!("wetcloth: {}: {line}", scene.name);
+                        }
+                    });
+                }
             }
             progress.set_message(format!("frame {k}/{last}"));
+            // The energy and reach audit before every frame (the core's own runs every
+            // AUDIT_INTERVAL steps): no frame is written that has not passed it.
+            sim.audit().map_err(|error| CliError::BlowUp {
+                error,
+                frames: written,
+                dir: dir.clone(),
+            })?;
             write_frame(&sim, &mut csv, &mut pockets_csv, k)?;
             (written, time) = (k + 1, sim.time());
             if k == last {
@@ -557,6 +599,58 @@ fn bake(
             Err(e)
         }
     }
+}
+
+/// The run's own pace: after its first second of stepping, the time the rest will take at
+/// that rate, said once when it is more than a minute and the up-front estimate said less.
+struct Pace {
+    started: Instant,
+    first_step: u64,
+    last_step: u64,
+    estimate: f64,
+    said: bool,
+}
+
+impl Pace {
+    /// Pace of a run stepping from `first_step` to `last_step`, estimated up front at
+    /// `estimate` seconds.
+    fn new(first_step: u64, last_step: u64, estimate: f64) -> Self {
+        Self {
+            started: Instant::now(),
+            first_step,
+            last_step,
+            estimate,
+            said: false,
+        }
+    }
+
+    /// At step `step`: the line to print, once.
+    fn check(&mut self, step: u64) -> Option<String> {
+        let elapsed = self.started.elapsed().as_secs_f64();
+        if self.said || elapsed < 1.0 || step <= self.first_step {
+            return None;
+        }
+        self.said = true;
+        let rate = elapsed / (step - self.first_step) as f64;
+        let left = rate * self.last_step.saturating_sub(step) as f64;
+        projected_line(left, elapsed, step - self.first_step, self.estimate)
+    }
+}
+
+/// The line that says a run will take `left` more seconds, measured over `steps` steps that
+/// took `elapsed` s, when that is more than a minute and more than the up-front `estimate`
+/// said (s); `None` otherwise.
+fn projected_line(left: f64, elapsed: f64, steps: u64, estimate: f64) -> Option<String> {
+    (left > 60.0 && left > 2.0 * estimate).then(|| {
+        format!(
+            "at the pace of its first {steps} step(s) ({:.2e} s each) the run will take about {} \
+             more on this machine (estimated {} before it started: the estimate does not see \
+             every cost)",
+            elapsed / steps as f64,
+            estimate::duration(left),
+            estimate::duration(estimate)
+        )
+    })
 }
 
 /// What is not finite in a frame about to be written (positions, metrics), if anything: the
@@ -729,7 +823,10 @@ fn print_summary(scene: &Scene, sim: &Simulation, dir: &Path, frames: u64, wall:
 /// (Files get full precision; this is only for the summary.)
 fn human(v: Real) -> String {
     let a = v.abs();
-    if v == 0.0 || (1e-3..1e6).contains(&a) {
+    if v == 0.0 {
+        // Not "-0": a run that trapped no air says 0.
+        "0".into()
+    } else if (1e-3..1e6).contains(&a) {
         let s = format!("{v:.6}");
         let s = s.trim_end_matches('0').trim_end_matches('.');
         s.to_string()
@@ -742,6 +839,25 @@ fn human(v: Real) -> String {
 mod tests {
     use super::*;
     use wetcloth::SimConfig;
+
+    /// The summary printed `trapped_air -0 m^3` for a run without air.
+    #[test]
+    fn the_summary_never_prints_minus_zero() {
+        assert_eq!(human(-0.0), "0");
+        assert_eq!(human(0.0), "0");
+        assert_eq!(human(-0.25), "-0.25");
+        assert_eq!(human(1e308), "1.0000e308");
+    }
+
+    /// A run whose own pace says more than a minute (and more than twice the estimate) is
+    /// announced; one within its estimate or under a minute is not.
+    #[test]
+    fn the_run_says_when_its_pace_makes_it_long() {
+        let line = projected_line(600.0, 1.0, 10, 5.0).unwrap();
+        assert!(line.contains("10 min") && line.contains("5 s"), "{line}");
+        assert_eq!(projected_line(50.0, 1.0, 10, 5.0), None);
+        assert_eq!(projected_line(600.0, 1.0, 10, 400.0), None);
+    }
 
     #[test]
     fn frames_fall_on_the_first_step_at_or_after_their_time() {

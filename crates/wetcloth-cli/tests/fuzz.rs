@@ -4,7 +4,12 @@
 //! Properties: the exit status is 0, 1 or 2 and never a panic, an abort or a hang; a run that
 //! exits 0 wrote as many frames and metrics rows as `run.json` says, all finite, and says
 //! `complete`; one that exits 1 says `failed`, with the error, and keeps what it wrote, all
-//! finite; one that exits 2 wrote nothing; no run writes through a link or leaves a `.part`.
+//! finite; one that exits 2 wrote nothing; no run writes through a link or leaves a `.part`;
+//! no pocket in `pockets.csv` holds negative air or has a negative pressure; `run.json` stays
+//! under a megabyte; and a run that stopped part way, its checkpoint then damaged in one bit,
+//! is refused by `--resume` (exit 2, naming the checkpoint). The scenes use every key of the
+//! format (pockets, paint, seeds, both integrators and budgets, both pressure forces, still,
+//! moving and mesh colliders, grabs), and the meshes include damaged and odd ones (`MESHES`).
 //!
 //! A short campaign runs with the test suite; the long one (10 000 runs) is
 //! `cargo test --release -p wetcloth-cli --test fuzz -- --ignored`. `WETCLOTH_FUZZ_CASES` and
@@ -92,6 +97,34 @@ fn toml(v: f64) -> String {
     }
 }
 
+/// The meshes beside the fuzzed scenes, by file name: an octahedron of radius 1, and damaged or
+/// odd ones (the octahedron with a second one wound the other way, a square's two faces, a
+/// triangle 1e200 m away, a cut file with a NaN and a missing vertex, and one that is missing).
+const MESHES: [(&str, &str); 6] = [
+    ("mesh.obj", OCTAHEDRON),
+    (
+        "inside-out.obj",
+        "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n\
+         f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n\
+         v 4 0 0\nv 2 0 0\nv 3 1 0\nv 3 -1 0\nv 3 0 1\nv 3 0 -1\n\
+         f 7 11 9\nf 9 11 8\nf 8 11 10\nf 10 11 7\nf 9 12 7\nf 8 12 9\nf 10 12 8\nf 7 12 10\n",
+    ),
+    (
+        "flat.obj",
+        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\nf 2 1 4\nf 2 4 3\n",
+    ),
+    (
+        "huge.obj",
+        "v 0 -1e200 0\nv 1e200 -1e200 0\nv 0 -1e200 1e200\nf 1 2 3\n",
+    ),
+    ("damaged.obj", "v 0 0 0\nv nan 1 0\nv 0 0\nf 1 2 9\nf 1"),
+    ("missing.obj", ""),
+];
+
+/// An octahedron of radius 1.
+const OCTAHEDRON: &str = "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n\
+    f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n";
+
 #[derive(Clone, Debug)]
 struct Shape {
     text: String,
@@ -122,11 +155,20 @@ fn collider() -> impl Strategy<Value = Shape> {
                     f(x), f(y - hy), f(z), f(hx), f(hy), f(hx), f(mu)
                 )
             }),
-        // The octahedron of `mesh.obj` (written beside the scene: radius 1 before `scale`).
-        (-2.0f64..2.0, -2.0f64..-0.05, -2.0f64..2.0, log_range(1e-3, 10.0), (-180.0f64..180.0, -180.0f64..180.0), friction)
-            .prop_map(|(x, y, z, r, (rx, ry), mu)| Shape {
+        // The octahedron of `mesh.obj` (written beside the scene: radius 1 before `scale`), or
+        // now and then a damaged or odd mesh (see `MESHES`).
+        (
+            -2.0f64..2.0,
+            -2.0f64..-0.05,
+            -2.0f64..2.0,
+            log_range(1e-3, 10.0),
+            (-180.0f64..180.0, -180.0f64..180.0),
+            friction,
+            prop_oneof![6 => Just("mesh.obj"), 1 => prop::sample::select(MESHES.iter().map(|m| m.0).collect::<Vec<_>>())],
+        )
+            .prop_map(|(x, y, z, r, (rx, ry), mu, file)| Shape {
                 text: format!(
-                    "[[collider]]\nshape = \"mesh\"\nfile = \"mesh.obj\"\nposition = [{}, {}, {}]\nrotation = [{}, {}, 0]\nscale = {}\nfriction = {}\n",
+                    "[[collider]]\nshape = \"mesh\"\nfile = \"{file}\"\nposition = [{}, {}, {}]\nrotation = [{}, {}, 0]\nscale = {}\nfriction = {}\n",
                     f(x), f(y - r), f(z), f(rx), f(ry), f(r), f(mu)
                 )
             }),
@@ -233,8 +275,8 @@ fn wet() -> impl Strategy<Value = Wet> {
                 return Wet { cloth, paint, air: String::new(), pockets: String::new() };
             }
             let air = format!(
-                "model = \"pockets\"\nseal_distance = {}\nseal_wetness = {}\npermeability = {}\ndry_permeability = {}\n",
-                f(seal), toml(seal_wet), f(perm), f(dry_perm)
+                "model = \"pockets\"\nseal_distance = {}\nseal_wetness = {}\npermeability = {}\ndry_permeability = {}\nseal_hysteresis = {}\n",
+                f(seal), toml(seal_wet), f(perm), f(dry_perm), f((seal * 1e3).fract())
             );
             let pockets = seeds
                 .iter()
@@ -271,7 +313,7 @@ fn scene() -> impl Strategy<Value = String> {
         log_range(0.0, 1e7),
         log_range(0.0, 1e3),
         log_range(0.0, 10.0),
-        any::<bool>(),
+        (any::<bool>(), any::<bool>()),
     );
     let grabs = prop::collection::vec(
         (
@@ -283,22 +325,29 @@ fn scene() -> impl Strategy<Value = String> {
         ),
         0..3,
     );
-    let integrator =
-        prop_oneof![3 => Just(None), 1 => log_range(1.0 / 2400.0, 0.05).prop_map(Some)];
+    let integrator = prop_oneof![
+        3 => Just(None),
+        1 => (log_range(1.0 / 2400.0, 0.05), any::<bool>()).prop_map(Some)
+    ];
     (sim, cloth, air, prop::collection::vec(collider(), 0..3), grabs, prop::bool::weighted(0.9), (wet(), integrator))
         .prop_map(|(sim, cloth, air, colliders, grabs, ground, (wet, implicit))| {
             let (duration, dt, rate, gravity) = sim;
             // At most about 3000 steps; the implicit integrator at its large steps.
+            let (implicit, budget) = match implicit {
+                Some((dt, interactive)) => (Some(dt), interactive),
+                None => (None, false),
+            };
             let dt = implicit.unwrap_or(dt).max(duration / 3000.0);
             let (res, size, mass, (ks, kh), damping, (thick, margin), sc, (limit, iters), lift) = cloth;
             let radius = 0.5 * (thick + margin);
             let mut s = format!(
-                "name = \"fuzz\"\n[simulation]\nduration = {}\ntime_step = {}\nframe_rate = {}\ngravity = [{}]\nintegrator = \"{}\"\n",
+                "name = \"fuzz\"\n[simulation]\nduration = {}\ntime_step = {}\nframe_rate = {}\ngravity = [{}]\nintegrator = \"{}\"\nimplicit_budget = \"{}\"\n",
                 f(duration),
                 f(dt),
                 f(rate),
                 gravity.iter().map(|g| toml(*g)).collect::<Vec<_>>().join(", "),
-                if implicit.is_some() { "implicit" } else { "verlet" }
+                if implicit.is_some() { "implicit" } else { "verlet" },
+                if budget { "interactive" } else { "converged" }
             );
             s += &format!(
                 "[cloth]\nresolution = [{}, {}]\nsize = [{}, {}]\nposition = [0, {}, 0]\nmass = {}\n\
@@ -310,11 +359,12 @@ fn scene() -> impl Strategy<Value = String> {
             );
             s += &wet.cloth;
             s += &wet.paint;
-            let (enabled, pa, v0, leak, implicit) = air;
+            let (enabled, pa, v0, leak, (implicit, area)) = air;
             s += &format!(
                 "[air]\nenabled = {enabled}\natmospheric_pressure = {}\ntrapped_air = {}\n\
-                 leak_conductance = {}\npressure_solve = \"{}\"\n",
-                f(pa), f(v0), f(leak), if implicit { "implicit" } else { "explicit" }
+                 leak_conductance = {}\npressure_solve = \"{}\"\npressure_force = \"{}\"\n",
+                f(pa), f(v0), f(leak), if implicit { "implicit" } else { "explicit" },
+                if area { "area" } else { "thesis" }
             );
             s += &wet.air;
             s += &wet.pockets;
@@ -425,7 +475,7 @@ fn parts(dir: &Path) -> Vec<PathBuf> {
     found
 }
 
-fn run_case(dir: &Path, scene: &str, b: &Before) -> Result<(), TestCaseError> {
+fn run_case(dir: &Path, scene: &str, b: &Before, damage: usize) -> Result<(), TestCaseError> {
     let path = dir.join("fuzz.toml");
     fs::write(&path, scene).unwrap();
     let out = dir.join("out");
@@ -512,29 +562,81 @@ fn run_case(dir: &Path, scene: &str, b: &Before) -> Result<(), TestCaseError> {
         prop_assert!(all_finite(p), "non-finite numbers in {}", p.display());
     }
     prop_assert!(json["time"].as_f64().is_some_and(f64::is_finite));
+    // No pocket ever holds negative air or a negative absolute pressure.
+    if let Ok(text) = fs::read_to_string(out.join("pockets.csv")) {
+        for row in text.lines().skip(1) {
+            let v: Vec<f64> = row.split(',').filter_map(|x| x.parse().ok()).collect();
+            // frame,time,pocket,volume,amount,pressure,area,particles
+            prop_assert!(
+                v.len() == 8 && v[4] >= -1e-15 && v[5] >= -1e-3,
+                "pockets.csv: {}; {}",
+                row,
+                err
+            );
+        }
+    }
+    // run.json stays small whatever the meshes.
+    prop_assert!(fs::metadata(out.join("run.json")).unwrap().len() < 1 << 20);
+    // A damaged checkpoint of a run that stopped part way is refused, naming it.
+    let ckpt = out.join("checkpoint.bin");
+    if code == Some(1)
+        && let Ok(mut bytes) = fs::read(&ckpt)
+        && !bytes.is_empty()
+    {
+        let k = damage % bytes.len();
+        bytes[k] ^= 1 << (damage % 8);
+        fs::write(&ckpt, &bytes).unwrap();
+        let o = Command::new(BIN)
+            .args(["run", "--resume", out.to_str().unwrap(), "-q"])
+            .env_remove("RAYON_NUM_THREADS")
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        prop_assert!(!e.contains("panicked"), "{}", e);
+        prop_assert_eq!(
+            o.status.code(),
+            Some(2),
+            "damaged byte {} resumed: {}",
+            k,
+            e
+        );
+        prop_assert!(e.contains("checkpoint.bin"), "{}", e);
+    }
     Ok(())
 }
 
 /// Features of the scenes, counted by exit status to show what the campaign reaches.
-const FEATURES: [&str; 6] = [
+const FEATURES: [&str; 11] = [
     "integrator = \"implicit\"",
     "\"pockets\"",
     "[[air.pocket]]",
     "[[cloth.paint]]",
     "\"mesh\"",
     "], rotation = [",
+    "implicit_budget = \"interactive\"",
+    "pressure_force = \"area\"",
+    "[[grab]]",
+    "\"inside-out.obj\"",
+    "\"flat.obj\"",
 ];
 
 /// Runs by exit status (0, 1, 2): all, then with each feature.
-type ByExit = [[u64; 7]; 3];
+type ByExit = [[u64; 12]; 3];
 /// The first words of exit-1 errors (digits dropped) and how often each came.
 type Errors = Vec<(String, u64)>;
-static TALLY: std::sync::Mutex<(ByExit, Errors)> = std::sync::Mutex::new(([[0; 7]; 3], Vec::new()));
+static TALLY: std::sync::Mutex<(ByExit, Errors)> =
+    std::sync::Mutex::new(([[0; 12]; 3], Vec::new()));
 
 fn tally(scene: &str, code: usize, err: &str) {
     let mut t = TALLY.lock().unwrap_or_else(|e| e.into_inner());
     if code > 2 {
         return;
+    }
+    // Every thousand runs, the counts so far (a long campaign cut short still reports).
+    let done: u64 = t.0.iter().map(|row| row[0]).sum::<u64>() + 1;
+    if done.is_multiple_of(1000) {
+        let so_far: Vec<u64> = t.0.iter().map(|row| row[0]).collect();
+        eprintln!("fuzz: {done} runs so far, by exit status 0, 1, 2: {so_far:?} (before this one)");
     }
     t.0[code][0] += 1;
     for (k, feature) in FEATURES.iter().enumerate() {
@@ -576,17 +678,18 @@ fn report() {
 fn campaign(n: u32) {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-run");
     fs::create_dir_all(&dir).unwrap();
-    // An octahedron of radius 1 for the mesh colliders.
-    fs::write(
-        dir.join("mesh.obj"),
-        "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n\
-         f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n",
-    )
-    .unwrap();
+    for (name, text) in MESHES {
+        if name == "missing.obj" {
+            let _ = fs::remove_file(dir.join(name));
+        } else {
+            fs::write(dir.join(name), text).unwrap();
+        }
+    }
     runner(n)
-        .run(&(scene(), before()), |(scene, b)| {
-            run_case(&dir, &scene, &b)
-        })
+        .run(
+            &(scene(), before(), any::<usize>()),
+            |(scene, b, damage)| run_case(&dir, &scene, &b, damage),
+        )
         .unwrap();
     report();
 }

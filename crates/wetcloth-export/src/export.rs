@@ -92,14 +92,7 @@ pub fn read_run_folder(run_dir: &Path) -> Result<RunFolder, ExportError> {
     let json = run_dir.join("run.json");
     let text = fs::read_to_string(&json)
         .map_err(|e| ExportError::Input(format!("{}: cannot read: {e}", json.display())))?;
-    let info: RunInfo = serde_json::from_str(&text).map_err(|e| {
-        ExportError::Input(format!(
-            "{}:{}:{}: not a wetcloth run.json: {e}",
-            json.display(),
-            e.line(),
-            e.column()
-        ))
-    })?;
+    let info: RunInfo = crate::read_run_json(run_dir, &text).map_err(ExportError::Input)?;
     let [nx, nz] = info.resolution;
     if nx < 2 || nz < 2 {
         return Err(ExportError::Input(format!(

@@ -109,6 +109,29 @@ impl RunInfo {
     }
 }
 
+/// Why the frames of `run` are not the whole run its scene asked for, if they are not: its
+/// status (`running`: killed or still writing; `interrupted`; `failed`, with the error), for
+/// the warning of an export and the caches' own metadata.
+pub fn incomplete(run: &RunInfo) -> Option<String> {
+    let frames = format!(
+        "the cache holds the {} frame(s) written ({} s of the {} s asked for)",
+        run.frames,
+        wetcloth::math::num(run.time),
+        wetcloth::math::num(run.duration)
+    );
+    match run.status {
+        RunStatus::Complete => None,
+        RunStatus::Running => Some(format!(
+            "the run's status is \"running\" (killed, or still writing): {frames}"
+        )),
+        RunStatus::Interrupted => Some(format!("the run was interrupted: {frames}")),
+        RunStatus::Failed => Some(format!(
+            "the run failed ({}): {frames}",
+            run.error.as_deref().unwrap_or("no error recorded")
+        )),
+    }
+}
+
 impl RunInfo {
     /// The same with `status` (and `complete` following it) and the simulated `time` of the
     /// last frame written, s.

@@ -128,12 +128,38 @@ impl Scene {
                         key,
                         message: p.message,
                     },
-                    None => SceneError::Invalid {
-                        at: Box::new(Location::file_only(file)),
-                        key,
-                        value: "(default)".into(),
-                        message: p.message,
-                    },
+                    // No [[collider]] table at all: the default ground plane is the collider.
+                    // Point at what would fix it: the cloth's position (or its table, or the
+                    // file's first line), and say where the plane comes from.
+                    None => {
+                        let message = format!(
+                            "{}; the scene has no [[collider]] table, so collider[0] is the \
+                             default ground plane through [0, 0, 0] with normal [0, 1, 0]: add \
+                             a [[collider]] table or raise cloth.position",
+                            p.message
+                        );
+                        let placed = doc
+                            .as_ref()
+                            .and_then(|doc| keys::locate(doc, "cloth.position"));
+                        match placed {
+                            Some((span, exact)) => SceneError::Invalid {
+                                value: if exact {
+                                    text.get(span.clone()).unwrap_or("?").trim().to_string()
+                                } else {
+                                    "(default)".into()
+                                },
+                                at: Box::new(Location::of_span(file, text, span)),
+                                key: "cloth.position".into(),
+                                message,
+                            },
+                            None => SceneError::Invalid {
+                                at: Box::new(Location::of_span(file, text, 0..0)),
+                                key: "cloth.position".into(),
+                                value: "(default)".into(),
+                                message,
+                            },
+                        }
+                    }
                 }
             }
             None => SceneError::Invalid {

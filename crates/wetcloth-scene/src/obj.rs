@@ -10,6 +10,11 @@ use wetcloth::{Real, Vec3};
 /// The largest mesh file read, bytes (256 MiB: millions of triangles).
 pub const MAX_MESH_BYTES: u64 = 256 << 20;
 
+/// The largest vertex coordinate read, in the file's units (1e9: a model a million kilometres
+/// across in metres). Coordinates near 1e155 and beyond overflow the squared distances the
+/// contact queries take, so a mesh must be refused long before them; no model needs more.
+pub const MAX_COORDINATE: Real = wetcloth::collide::mesh::MAX_COORDINATE;
+
 /// A mesh read from an OBJ file.
 #[derive(Debug, Default, PartialEq)]
 pub struct ObjMesh {
@@ -57,6 +62,14 @@ pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
                         v.x,
                         v.y,
                         v.z
+                    )));
+                }
+                if let Some(&x) = c.iter().find(|x| x.abs() > MAX_COORDINATE) {
+                    return Err(err(format!(
+                        "vertex {} has the coordinate {x:e}, out of range: allowed each in \
+                         [-{MAX_COORDINATE:e}, {MAX_COORDINATE:e}] (the file's units; `scale` \
+                         converts them to metres)",
+                        m.vertices.len() + 1
                     )));
                 }
                 m.vertices.push(v);

@@ -790,6 +790,22 @@ fn load_mesh(
         value: cx.raw(&file.span()),
         message,
     };
+    // A FIFO, a device or a folder is refused before it is opened: opening a FIFO for reading
+    // waits for a writer, forever.
+    match std::fs::metadata(&path) {
+        Ok(m) if !m.is_file() => {
+            let what = if m.is_dir() {
+                "a folder"
+            } else {
+                "not a regular file (a FIFO, a socket or a device)"
+            };
+            return Err(fail(format!(
+                "the mesh file {} is {what}: a mesh collider reads an OBJ file",
+                path.display()
+            )));
+        }
+        _ => {}
+    }
     let mut bytes = Vec::new();
     std::fs::File::open(&path)
         .and_then(|f| {

@@ -138,11 +138,12 @@ fn a_cloth_inside_a_box_is_refused_at_its_center_with_the_depth() {
 fn a_cloth_on_the_ground_at_its_particle_radius_runs_and_lower_is_refused() {
     parse("[cloth]\nposition = [0, 0.00075, 0]\n", "s.toml".as_ref()).unwrap();
     let (e, msg) = refused("[cloth]\nposition = [0, 0, 0]\n");
-    assert_eq!(e.key(), Some("collider[0].point"));
     assert_has(&msg, &["0.75 mm inside", "9 m/s"]);
-    // The default ground has no line of its own: the error is at the file.
-    assert_eq!(e.location().unwrap().line, 0);
-    assert_has(&msg, &["(default)"]);
+    // The default ground has no line of its own: the error points at what would fix it,
+    // the cloth's position, and says where the plane comes from.
+    assert_eq!(e.key(), Some("cloth.position"));
+    assert_eq!(e.location().unwrap().line, 2);
+    assert_has(&msg, &["no [[collider]] table", "default ground plane"]);
 }
 
 #[test]

@@ -138,6 +138,7 @@ const SIMULATION: &[&str] = &[
     "duration",
     "time_step",
     "integrator",
+    "implicit_budget",
     "frame_rate",
     "gravity",
 ];
@@ -223,6 +224,9 @@ fn good(key: &str) -> BoxedStrategy<String> {
         "integrator" => prop::sample::select(vec!["\"verlet\"", "\"implicit\""])
             .prop_map(String::from)
             .boxed(),
+        "implicit_budget" => prop::sample::select(vec!["\"converged\"", "\"interactive\""])
+            .prop_map(String::from)
+            .boxed(),
         "frame_rate" => num(1.0..1000.0),
         "gravity" | "normal" => vec_of(vec![num(-20.0..20.0), num(-20.0..20.0), num(-20.0..20.0)]),
         "size" => vec_of(vec![num(0.01..2.0), num(0.01..2.0)]),
@@ -259,6 +263,10 @@ fn good(key: &str) -> BoxedStrategy<String> {
             "\"tiny.obj\"",
             "\"missing.obj\"",
             "\"damaged.obj\"",
+            "\"huge.obj\"",
+            "\"inside-out.obj\"",
+            "\"flat.obj\"",
+            "\"fifo.obj\"",
             "\"\"",
             "\".\"",
         ])
@@ -572,8 +580,10 @@ static ACCEPTED_WITH: [std::sync::atomic::AtomicU64; 6] =
     [const { std::sync::atomic::AtomicU64::new(0) }; 6];
 
 /// The folder the fuzzed scene files "live" in, holding the meshes they name: `mesh.obj` (an
-/// octahedron), `tiny.obj` (one triangle) and `damaged.obj` (cut, with a NaN and a face naming
-/// a missing vertex); `missing.obj` is not there.
+/// octahedron), `tiny.obj` (one triangle), `damaged.obj` (cut, with a NaN and a face naming
+/// a missing vertex), `huge.obj` (a triangle 1e200 m away), `inside-out.obj` (two
+/// octahedra wound opposite ways), `flat.obj` (a square's two faces: closed, no volume) and
+/// `fifo.obj` (a FIFO, on Unix); `missing.obj` is not there.
 fn scene_path() -> &'static std::path::Path {
     static PATH: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
     PATH.get_or_init(|| {
@@ -592,6 +602,25 @@ fn scene_path() -> &'static std::path::Path {
             "v 0 0 0\nv nan 1 0\nv 0 0\nf 1 2 9\nf 1",
         )
         .unwrap();
+        std::fs::write(
+            dir.join("huge.obj"),
+            "v 0 -1e200 0\nv 1e200 -1e200 0\nv 0 -1e200 1e200\nf 1 2 3\n",
+        )
+        .unwrap();
+        let flipped = "v 0.5 0 0\nv 0.3 0 0\nv 0.4 0.1 0\nv 0.4 -0.1 0\nv 0.4 0 0.1\nv 0.4 0 -0.1\n\
+                       f 7 11 9\nf 9 11 8\nf 8 11 10\nf 10 11 7\nf 9 12 7\nf 8 12 9\nf 10 12 8\nf 7 12 10\n";
+        std::fs::write(dir.join("inside-out.obj"), format!("{octahedron}{flipped}")).unwrap();
+        std::fs::write(
+            dir.join("flat.obj"),
+            "v -1 -1 -1\nv 1 -1 -1\nv 1 -1 1\nv -1 -1 1\nf 1 2 3\nf 1 3 4\nf 2 1 4\nf 2 4 3\n",
+        )
+        .unwrap();
+        #[cfg(unix)]
+        if !dir.join("fifo.obj").exists() {
+            let _ = std::process::Command::new("mkfifo")
+                .arg(dir.join("fifo.obj"))
+                .status();
+        }
         let _ = std::fs::remove_file(dir.join("missing.obj"));
         dir.join("s.toml")
     })

@@ -103,6 +103,12 @@ fn bad_meshes_are_refused_with_file_line_and_key() {
         e.contains(&format!("{path}:4:")) && e.contains("out of range"),
         "{e}"
     );
+    // A huge finite coordinate (it overflowed the contact queries), with its line and value.
+    let e = bad(Some("v 0 0 0\nv 1 0 0\nv 0 -1e200 1\nf 1 2 3\n"), "");
+    assert!(
+        e.contains(&format!("{path}:3:")) && e.contains("-1e200, out of range"),
+        "{e}"
+    );
     // A scale of 0.
     let e = bad(Some(TETRA), "\nscale = 0.0");
     assert!(
@@ -190,4 +196,22 @@ fn no_particle_is_ever_inside_the_head() {
         .fold(Real::NEG_INFINITY, Real::max);
     let centre = sim.positions().get(10 * 20 + 10);
     assert!(centre.y > 0.8 * top && centre.y < top + 0.01, "{centre}");
+}
+
+/// Closed meshes whose parts are wound opposite ways, or that enclose nothing (a square's two
+/// faces), were taken to contain all of space: "the cloth starts inside this mesh". A cloth
+/// 2 m above them starts clear.
+#[test]
+fn closed_meshes_wound_oppositely_or_flat_do_not_swallow_the_cloth() {
+    let dir = folder("inside-out");
+    // A tetrahedron wound outwards and one wound inwards beside it.
+    let two =
+        format!("{TETRA}v 5 0 0\nv 6 0 0\nv 5 1 0\nv 5 0 1\nf 5 6 7\nf 5 8 6\nf 5 7 8\nf 6 8 7\n");
+    // A flat square, both faces: closed by its edges, no volume.
+    let flat = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 2 3\nf 1 3 4\nf 2 1 4\nf 2 4 3\n";
+    for obj in [two.as_str(), flat] {
+        std::fs::write(dir.join("models/m.obj"), obj).unwrap();
+        let scene = scene_with(&dir, "shape = \"mesh\"\nfile = \"models/m.obj\"");
+        assert!(scene.is_ok(), "{obj}: {}", scene.unwrap_err());
+    }
 }

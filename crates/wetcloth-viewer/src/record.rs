@@ -50,6 +50,8 @@ impl Recorder {
         }
         let json = dir.join("run.json");
         let (name, mut config) = (name.to_string(), config.clone());
+        // run.json names each mesh by its copy beside it.
+        wetcloth_export::write_mesh_copies(dir, &config.colliders)?;
         write_run_json(&json, &name, &config, 0, RunStatus::Running, 0.0)?;
         let toml = wetcloth_scene::to_toml(&name, &config);
         write_atomically(&dir.join("scene.toml"), |w| w.write_all(toml.as_bytes()))?;

@@ -8,9 +8,12 @@
 //!   the cloth has passed through the sticking surface or through itself, and Boyle's law
 //!   means nothing any more.
 //! - **Energy from nowhere** ([`EnergyAudit`]): the cloth's mechanical energy (kinetic,
-//!   elastic, gravitational) may grow only by the work the hands and the moving colliders do
-//!   (`Simulation` passes their sum as the hands' work) and the energy the air can give; a run that gains far more is pumping energy out of round-off or out of a force law
-//!   pushed past its validity, and stops.
+//!   elastic, gravitational) may grow only by the work the hands, the moving colliders and the
+//!   water film's pull do (`Simulation` passes their sum as the hands' work,
+//!   [`Control::external_work`]) and the energy the air can give; a run that gains far more is
+//!   pumping energy out of round-off or out of a force law pushed past its validity, and
+//!   stops. It runs every [`AUDIT_INTERVAL`] steps inside the simulation, and
+//!   [`crate::Simulation::audit`] runs it at once (`wetcloth run` before every frame).
 //! - **Out of reach** ([`EnergyAudit::reach`]): at the same audits, a particle farther from the
 //!   centre the cloth had at the start than free fall, the hands' paths, the cloth's own
 //!   (over-)stretched size and the speed the energy budget allows over the time since can
@@ -159,8 +162,8 @@ impl EnergyAudit {
         dt: Real,
         time: Real,
     ) -> Result<(), StepError> {
-        // The work done from outside: the hands' and the moving colliders'.
-        let hand_work = control.hand_work + control.collider_work;
+        // The work done from outside: the hands', the moving colliders' and the water film's.
+        let hand_work = control.external_work();
         // The largest distance, NaN if any is (Real::max would skip it).
         let distance = (0..state.len())
             .map(|k| (state.x.get(k) - self.centre).length_squared())

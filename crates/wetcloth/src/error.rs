@@ -77,7 +77,8 @@ pub enum StepError {
     /// The cloth gained far more energy than anything did work on it.
     #[error(
         "the simulation went unphysical at t = {time:.6} s: the cloth gained {gain:.3e} J of \
-         energy while the hands and the air can account for at most {allowance:.3e} J; try a \
+         energy while the hands, the moving colliders, the water film and the air can account \
+         for at most {allowance:.3e} J; try a \
          smaller time_step or a finer cloth (resolution)"
     )]
     EnergyGain {

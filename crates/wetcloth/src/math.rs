@@ -10,6 +10,25 @@ pub type Real = f64;
 /// A 3D vector in metres (or the unit its context names), Y up.
 pub type Vec3 = glam::DVec3;
 
+/// A number for messages: as Rust writes it (the shortest decimal that reads back to it)
+/// where that is short, `0`, or in scientific notation below 1e-4 or from 1e9 on, so that
+/// 1e308 reads `1e308` and not as 309 digits.
+pub fn num(v: Real) -> String {
+    let a = v.abs();
+    if v == 0.0 {
+        "0".into()
+    } else if !v.is_finite() || (1e-4..1e9).contains(&a) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// Three numbers for messages, `[x, y, z]`, each as [`num`] writes it.
+pub fn num3(v: Vec3) -> String {
+    format!("[{}, {}, {}]", num(v.x), num(v.y), num(v.z))
+}
+
 /// Particle vectors stored as three arrays (structure of arrays), so the per-row loops of the
 /// grid stencil read contiguous lanes and vectorise.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -128,5 +147,23 @@ pub(crate) fn row(p: &Soa, nx: usize, r: usize) -> RowRef<'_> {
         x: &p.x[r * nx..(r + 1) * nx],
         y: &p.y[r * nx..(r + 1) * nx],
         z: &p.z[r * nx..(r + 1) * nx],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Huge and tiny values read in scientific notation, everyday ones as written.
+    #[test]
+    fn messages_print_huge_values_in_scientific_notation() {
+        assert_eq!(num(1e308), "1e308");
+        assert_eq!(num(-1.5e300), "-1.5e300");
+        assert_eq!(num(2.5e-7), "2.5e-7");
+        assert_eq!(num(0.01), "0.01");
+        assert_eq!(num(10000.0), "10000");
+        assert_eq!(num(-0.0), "0");
+        assert_eq!(num(Real::INFINITY), "inf");
+        assert_eq!(num3(Vec3::new(1e200, 1.0, 0.0)), "[1e200, 1, 0]");
     }
 }

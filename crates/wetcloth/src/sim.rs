@@ -51,6 +51,9 @@ pub struct Simulation {
     audit: EnergyAudit,
     /// Steps the implicit integrator took again as two of half the time step, since t = 0.
     halvings: u64,
+    /// Scratch: the particles the water film pulls during the step being taken, with the
+    /// pull (N) and their positions at its start (m), to count the film's work.
+    film: Vec<(u32, Vec3, Vec3)>,
 }
 
 impl Simulation {
@@ -87,6 +90,7 @@ impl Simulation {
             strain: strain_limit::Scratch::default(),
             audit: EnergyAudit::default(),
             halvings: 0,
+            film: Vec::new(),
             model,
             config,
         };
@@ -401,7 +405,42 @@ impl Simulation {
     /// The work done on the cloth from outside so far, J: the hands' and the moving colliders'
     /// (summed magnitudes), which the energy audit allows for.
     fn external_work(&self) -> Real {
-        self.control.hand_work + self.control.collider_work
+        self.control.external_work()
+    }
+
+    /// Before a step: the particles the water film pulls onto the surface during it (the
+    /// pockets model's sealed particles outside every pocket, `wet_adhesion * wetness * S`
+    /// along the cloth normal), with their pulls (N) and positions, into `self.film`.
+    fn start_film_work(&mut self) {
+        self.film.clear();
+        let Some(p) = self.air.pockets() else {
+            return;
+        };
+        let model = &self.model;
+        if !self.control.air_enabled || model.wet_adhesion <= 0.0 {
+            return;
+        }
+        let x = &self.state.x;
+        for (k, (&sealed, &q)) in p.sealed.iter().zip(&p.particle_pocket).enumerate() {
+            if sealed && q == crate::air::pockets::NONE && model.wetness[k] > 0.0 {
+                let pull = model.wet_adhesion * model.wetness[k] * model.area_per_particle;
+                self.film
+                    .push((k as u32, model.grid.normal(x, k) * -pull, x.get(k)));
+            }
+        }
+    }
+
+    /// After a step: adds the magnitude of the work the film's pulls of
+    /// [`Simulation::start_film_work`] did over the particles' moves to the control's
+    /// `film_work`, J.
+    fn finish_film_work(&mut self) {
+        let x = &self.state.x;
+        let work: Real = self
+            .film
+            .iter()
+            .map(|&(k, pull, from)| checks::work(pull, from, x.get(k as usize)).abs())
+            .sum();
+        self.control.film_work += work;
     }
 
     /// Forgets the air's history: the previous volume becomes the current one.
@@ -522,7 +561,8 @@ impl Simulation {
             dt,
         );
 
-        // 3. Integrate.
+        // 3. Integrate (and count the water film's work over the step).
+        self.start_film_work();
         let reference = self
             .self_collision
             .as_ref()
@@ -557,11 +597,32 @@ impl Simulation {
         // 5. Corrections.
         let corrected = self.correct(moved2, t_next, dt);
 
+        self.finish_film_work();
+
         // 6. Measure and check.
         if corrected {
             self.remeasure_all();
         }
         self.finish_measures_at(t_next, dt)
+    }
+
+    /// The energy and reach audit of [`crate::checks`] (`EnergyAudit::check`) on the current
+    /// state, now: `Err` if the cloth has more mechanical energy than the hands, the moving
+    /// colliders, the air and the water film can have given it since the audit started, or a
+    /// particle is farther than anything can have carried it.
+    ///
+    /// [`Simulation::step`] runs it only every [`checks::AUDIT_INTERVAL`] steps (one pass over
+    /// the springs); a program that writes the state out (a frame, a checkpoint) runs it
+    /// before each write and at the end, so that nothing written has escaped it whatever the
+    /// number of steps between writes.
+    pub fn audit(&self) -> Result<(), StepError> {
+        self.audit.check(
+            &self.model,
+            &self.state,
+            &self.control,
+            self.time_step(),
+            self.time(),
+        )
     }
 
     /// The checks of [`crate::checks`] beyond the measures: the sign of the bubble, and every

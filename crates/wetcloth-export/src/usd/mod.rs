@@ -199,12 +199,16 @@ pub(crate) fn build_stage(spec: &CacheSpec<'_>) -> Stage {
     if !colliders.children.is_empty() {
         root.children.push(colliders);
     }
+    let mut doc = format!(
+        "wetcloth run `{}`: {} x {} particles, {} frames at {} frames per second; metres, Y up; \
+         time code k is frame k",
+        run.name, run.resolution[0], run.resolution[1], spec.frames, run.frame_rate
+    );
+    if let Some(why) = crate::incomplete(run) {
+        doc.push_str(&format!("; INCOMPLETE: {why}"));
+    }
     Stage {
-        doc: format!(
-            "wetcloth run `{}`: {} x {} particles, {} frames at {} frames per second; \
-             metres, Y up; time code k is frame k",
-            run.name, run.resolution[0], run.resolution[1], spec.frames, run.frame_rate
-        ),
+        doc,
         frame_rate: run.frame_rate,
         start: 0.0,
         end: spec.frames.saturating_sub(1) as f64,

@@ -51,7 +51,9 @@ struct RawRunInfo {
     resolution: Option<[u64; 2]>,
     particle_radius: Option<f64>,
     frame_rate: Option<f64>,
-    colliders: Option<Vec<Collider>>,
+    /// The colliders as written (a mesh by its copy in the run folder); read by
+    /// `wetcloth_export::read_colliders`.
+    colliders: Option<serde_json::Value>,
     grabs: Option<Vec<[u64; 2]>>,
     frames: Option<u64>,
     status: Option<String>,
@@ -62,7 +64,7 @@ const STATUSES: [&str; 4] = ["running", "complete", "interrupted", "failed"];
 
 impl RawRunInfo {
     /// The checked run information, or what is wrong (naming the key).
-    fn check(self) -> Result<RunInfo, String> {
+    fn check(self, run_dir: &Path) -> Result<RunInfo, String> {
         let resolution = match self.resolution {
             None => [0, 0],
             Some(r) if r.iter().all(|n| (2..=4096).contains(n)) => r.map(|n| n as usize),
@@ -85,7 +87,10 @@ impl RawRunInfo {
                 "frame_rate = {frame_rate:?} is out of range: allowed [1, 10000] frames per second"
             ));
         }
-        let mut colliders = self.colliders.unwrap_or_default();
+        let mut colliders: Vec<Collider> = match &self.colliders {
+            None => Vec::new(),
+            Some(c) => wetcloth_export::read_colliders(run_dir, c)?,
+        };
         for (i, c) in colliders.iter_mut().enumerate() {
             // wetcloth writes unit normals; any other non-zero one means the same plane.
             if let Shape::Plane(plane) = &mut c.shape {
@@ -174,11 +179,13 @@ pub fn read_run_info(run_dir: &Path) -> Result<Option<RunInfo>, RenderError> {
         message: e.to_string(),
         path: path.clone(),
     })?;
-    raw.check().map(Some).map_err(|message| RenderError::Parse {
-        path,
-        line: None,
-        message,
-    })
+    raw.check(run_dir)
+        .map(Some)
+        .map_err(|message| RenderError::Parse {
+            path,
+            line: None,
+            message,
+        })
 }
 
 /// A cloth frame read from OBJ: positions and triangle indices.

@@ -121,8 +121,9 @@ impl Bubble {
     }
 
     /// Phase 4: air leaking in (or out) where the border is lifted off the surface at the
-    /// step's end (positions `x`, [`leak::open_border_length`]), at the pressure of the step's
-    /// start (explicit Euler on the amount of air).
+    /// step's end (positions `x`, [`leak::open_border_length`]), with the volume of the step's
+    /// start: the amount relaxed exactly towards atmospheric pressure ([`leak::relax`]), never
+    /// past it.
     pub(crate) fn leak(
         &mut self,
         air: &AirParams,
@@ -134,8 +135,11 @@ impl Bubble {
         let pa = air.atmospheric_pressure;
         if enabled && air.leak_conductance > 0.0 && pa > 0.0 {
             let open = leak::open_border_length(model, x, model.radius + air.seal_distance);
-            let flow = leak::border_flow(air.leak_conductance, open, pa, self.start_pressure);
-            self.trapped_air = (self.trapped_air + flow * dt).max(0.0);
+            // Boyle's volume at the step's start (the start pressure's), floored as Boyle's
+            // law floors it.
+            let volume = self.volume.max(super::boyle::MIN_GAP * model.cloth_area);
+            self.trapped_air =
+                leak::relax(self.trapped_air, volume, air.leak_conductance, open, dt).max(0.0);
         }
     }
 

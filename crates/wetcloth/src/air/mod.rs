@@ -191,14 +191,12 @@ impl AirModel {
             AirModel::Thesis(b) => (b.applied_pressure - pa)
                 .abs()
                 .max((b.pressure(air, model, enabled) - pa).abs()),
-            // The water film's suction adds to the air's on a sealed rim.
-            AirModel::Pockets(p) => {
-                p.pockets
-                    .iter()
-                    .map(|q| (q.pressure - pa).abs())
-                    .fold(0.0, Real::max)
-                    + model.wet_adhesion
-            }
+            // (The water film's pull is counted as work, `Control::film_work`.)
+            AirModel::Pockets(p) => p
+                .pockets
+                .iter()
+                .map(|q| (q.pressure - pa).abs())
+                .fold(0.0, Real::max),
         }
     }
 

@@ -15,8 +15,9 @@
 //! the air cells form connected regions (union-find, each step, linear cost). A region that
 //! reaches the cloth's border across an edge with an unsealed particle is **open**: at
 //! atmospheric pressure, no force. Every other region is a **sealed pocket** `k` with its amount
-//! of air `N_k` (m^3 at atmospheric pressure), its volume `V_k` (eq. 3.10 over its cells) and
-//! its pressure `P_k = P_a N_k / V_k` (Boyle).
+//! of air `N_k` (m^3 at atmospheric pressure), its volume `V_k` (eq. 3.10 over its cells, a
+//! cell of negative signed volume, its cloth below the surface or wound the other way, counting
+//! as no room) and its pressure `P_k = P_a N_k / V_k` (Boyle).
 //!
 //! # Events conserve air
 //!
@@ -203,27 +204,38 @@ impl Pockets {
             next_id: 1,
             scratch: Scratch::default(),
         };
-        // The seeded particles start unsealed, and their regions hold the seeds' air.
+        // The seeded particles start unsealed, and their regions hold the seeds' air. Each
+        // particle's seed (the first disc holding it) is found once: particles x seeds. (Asking
+        // again per seed cost seeds^2 x particles: 20 000 seeds took 30 s before the first
+        // step.)
         let rest = model.grid.rest_positions(crate::math::Vec3::ZERO);
-        let seed_of = |k: usize| {
-            air.pockets.iter().position(|s| {
-                let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
-                dx * dx + dz * dz <= s.radius * s.radius
+        let seed_of: Vec<u32> = (0..n)
+            .map(|k| {
+                air.pockets
+                    .iter()
+                    .position(|s| {
+                        let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
+                        dx * dx + dz * dz <= s.radius * s.radius
+                    })
+                    .map_or(NONE, |s| s as u32)
             })
-        };
+            .collect();
         p.gaps(model, &state.x, 0.0);
         p.cell_volumes(model, &state.x, measures);
-        p.seal(air, model, |k, _| seed_of(k).is_none());
+        p.seal(air, model, |k, _| seed_of[k] == NONE);
         p.resegment(air, model, true);
-        // Seeded regions: their air is the seeds' amount.
+        // Seeded regions: their air is the seeds' amount (a seed's pocket is that of its first
+        // particle, in grid order, that lies in a pocket).
         let mut seeded = vec![0.0; p.pockets.len()];
         let mut has_seed = vec![false; p.pockets.len()];
-        for (si, s) in air.pockets.iter().enumerate() {
-            let pocket = (0..n)
-                .filter(|&k| seed_of(k) == Some(si))
-                .map(|k| p.particle_pocket[k])
-                .find(|&q| q != NONE);
-            if let Some(q) = pocket {
+        let mut seed_pocket = vec![NONE; air.pockets.len()];
+        for (k, &si) in seed_of.iter().enumerate() {
+            if si != NONE && seed_pocket[si as usize] == NONE && p.particle_pocket[k] != NONE {
+                seed_pocket[si as usize] = p.particle_pocket[k];
+            }
+        }
+        for (s, &q) in air.pockets.iter().zip(&seed_pocket) {
+            if q != NONE {
                 seeded[q as usize] += s.amount;
                 has_seed[q as usize] = true;
             }
@@ -466,9 +478,10 @@ impl Pockets {
                 pocket.amount = v + (pocket.amount - v) * (-rate * dt).exp();
             }
             if air.leak_conductance > 0.0 && pa > 0.0 && pocket.rim_open > 0.0 {
-                let p = pa * pocket.amount / v;
-                let flow = super::leak::border_flow(air.leak_conductance, pocket.rim_open, pa, p);
-                pocket.amount = (pocket.amount + flow * dt).max(0.0);
+                // Relaxed exactly towards atmospheric pressure, never past it.
+                pocket.amount =
+                    super::leak::relax(pocket.amount, v, air.leak_conductance, pocket.rim_open, dt)
+                        .max(0.0);
             }
         }
         self.update_pressures(air);
@@ -585,7 +598,8 @@ impl Pockets {
         }
         for (c, &q) in self.cell_pocket.iter().enumerate() {
             if q != NONE {
-                self.pockets[q as usize].volume += self.cell_volume[c];
+                // A cell's room for air: none where its signed volume is negative.
+                self.pockets[q as usize].volume += self.cell_volume[c].max(0.0);
             }
         }
     }
@@ -692,7 +706,7 @@ impl Pockets {
                 continue;
             }
             let (i, j) = (c % m, c / m);
-            volume[r as usize] += self.cell_volume[j * m + i];
+            volume[r as usize] += self.cell_volume[j * m + i].max(0.0);
             count[r as usize] += 1;
             let k = j * nx + i;
             kappa[r as usize] += 0.25
@@ -705,7 +719,10 @@ impl Pockets {
         let mut old_cells = vec![0u32; self.pockets.len()];
         for c in 0..cells {
             let (r, old) = (sc.region[c], self.cell_pocket[c]);
-            let v = self.cell_volume[c];
+            // The air room of the cell: its gap volume, none where the cloth lies below the
+            // surface (a negative signed prism). Counting such a cell's volume as enclosed air
+            // or in an old pocket's shares made pockets of negative air.
+            let v = self.cell_volume[c].max(0.0);
             if r == NONE {
                 // The cell closed (sealed all round): its air is squeezed into the rest of
                 // its pocket, so it takes no share.

@@ -74,7 +74,7 @@ impl Cuboid {
         if !(h.is_finite() && h.min_element() > 0.0 && h.max_element() <= 1e4) {
             return Err(ConfigError::OutOfRange {
                 key: key("half_extents"),
-                value: format!("[{}, {}, {}]", h.x, h.y, h.z),
+                value: crate::math::num3(h),
                 range: "each component in (0, 1e4]".into(),
             });
         }

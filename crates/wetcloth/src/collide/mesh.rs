@@ -36,6 +36,12 @@ use std::sync::Arc;
 /// Largest scale of a mesh (a metre-sized model scaled to ten kilometres).
 pub const MAX_SCALE: Real = 1e4;
 
+/// Largest vertex coordinate of a model, in its own units (1e9). With [`MAX_SCALE`] and a
+/// position within 1e6 m, every squared distance the contact queries take stays far from
+/// overflowing (coordinates near 1e155 overflowed them and judged a cloth inside a triangle
+/// 1e200 m away).
+pub const MAX_COORDINATE: Real = 1e9;
+
 /// Why a mesh cannot be used.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MeshError {
@@ -70,6 +76,27 @@ pub enum MeshError {
     /// Every triangle has zero area.
     #[error("every triangle of the mesh has zero area")]
     Degenerate,
+    /// A vertex with a coordinate beyond [`MAX_COORDINATE`].
+    #[error(
+        "vertex {index} (counting from 1) has the coordinate {value:e}, out of range: allowed \
+         each in [-1e9, 1e9] (the model's units)"
+    )]
+    HugeVertex {
+        /// Vertex number, from 1 as in OBJ files.
+        index: usize,
+        /// The coordinate.
+        value: Real,
+    },
+    /// A mesh read back from `run.json` without its triangles (they are in the copy beside
+    /// it, [`Mesh::copy_name`]; `wetcloth_export::read_run_json` puts them back).
+    #[error(
+        "the mesh's triangles are not in run.json but in {copy} beside it (read run.json with \
+         wetcloth_export::read_run_json)"
+    )]
+    NotInline {
+        /// The copy's path relative to the run folder.
+        copy: String,
+    },
 }
 
 /// A triangle-mesh collider.
@@ -100,6 +127,8 @@ pub struct Mesh {
     closed: bool,
     /// `rotation` as a matrix.
     matrix: DMat3,
+    /// [`mesh_digest`] of `vertices` and `triangles`.
+    digest: u64,
 }
 
 impl std::fmt::Debug for Mesh {
@@ -160,6 +189,14 @@ impl Mesh {
                 z: v.z,
             });
         }
+        for (i, v) in vertices.iter().enumerate() {
+            if let Some(&value) = v.to_array().iter().find(|c| c.abs() > MAX_COORDINATE) {
+                return Err(MeshError::HugeVertex {
+                    index: i + 1,
+                    value,
+                });
+            }
+        }
         for (t, tri) in triangles.iter().enumerate() {
             if let Some(&i) = tri.iter().find(|&&i| i as usize >= vertices.len()) {
                 return Err(MeshError::IndexOutOfRange {
@@ -176,6 +213,7 @@ impl Mesh {
             1.0
         };
         let (query, closed) = build_query(&vertices, &triangles, s)?;
+        let digest = mesh_digest(&vertices, &triangles);
         Ok(Self {
             file: file.into(),
             position,
@@ -186,7 +224,22 @@ impl Mesh {
             query: Arc::new(query),
             closed,
             matrix: rotation_matrix(rotation),
+            digest,
         })
+    }
+
+    /// The content digest of the model as read ([`mesh_digest`] of its vertices and
+    /// triangles): what a run records of the mesh it read, to refuse a resume after the file
+    /// changed.
+    pub fn digest(&self) -> u64 {
+        self.digest
+    }
+
+    /// Where a run folder keeps a copy of the model, relative to the folder:
+    /// `meshes/<digest as 16 hex digits>.obj` (`run.json` names it instead of holding the
+    /// triangles).
+    pub fn copy_name(&self) -> String {
+        copy_name(self.digest)
     }
 
     /// The model's vertices as given (before scale, rotation and position).
@@ -321,7 +374,7 @@ impl Mesh {
         if !(r.is_finite() && r.abs().max_element() <= 1e6) {
             return Err(ConfigError::OutOfRange {
                 key: key("rotation"),
-                value: format!("[{}, {}, {}]", r.x, r.y, r.z),
+                value: crate::math::num3(r),
                 range: "each component in [-1e6, 1e6] degrees".into(),
             });
         }
@@ -329,7 +382,7 @@ impl Mesh {
         if !(s.is_finite() && s > 0.0 && s <= MAX_SCALE) {
             return Err(ConfigError::OutOfRange {
                 key: key("scale"),
-                value: s.to_string(),
+                value: crate::math::num(s),
                 range: format!("(0, {MAX_SCALE:e}]"),
             });
         }
@@ -389,13 +442,11 @@ fn build_query(
             *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
         }
     }
-    let closed = edges
+    let mut closed = edges
         .iter()
         .all(|(&(a, b), &count)| count == 1 && edges.get(&(b, a)) == Some(&1));
-    if closed && signed_volume(&merged, &tris) < 0.0 {
-        for t in &mut tris {
-            t.swap(1, 2);
-        }
+    if closed {
+        closed = orient_parts(&merged, &mut tris);
     }
     let flags = if closed {
         TriMeshFlags::ORIENTED
@@ -408,8 +459,110 @@ fn build_query(
         .map_err(|_| MeshError::Degenerate)
 }
 
-/// `run.json`'s form of a mesh: its placement and the model's triangles (so a run folder can
-/// be drawn without the scene's files).
+/// Turns every connected part of a closed mesh (`tris`, consistently wound within each part)
+/// to face outwards, each by its own signed volume: a mesh made of parts wound opposite ways
+/// (two boxes, one wound inwards) would otherwise keep one part inside-out, and all of space
+/// outside that part would count as inside the solid. Returns false, leaving the mesh to be
+/// taken as open and two-sided, when a part encloses no volume (a flat sheet folded onto
+/// itself: closed by its edges, but no solid), measured against its size: `|6 V| <= 1e-9 d^3`,
+/// `d` the diagonal of its bounding box.
+fn orient_parts(points: &[Vec3], tris: &mut [[u32; 3]]) -> bool {
+    // Parts: triangles joined by their (undirected) edges, by union-find.
+    let mut parent: Vec<u32> = (0..tris.len() as u32).collect();
+    fn find(parent: &mut [u32], mut a: u32) -> u32 {
+        while parent[a as usize] != a {
+            let up = parent[parent[a as usize] as usize];
+            parent[a as usize] = up;
+            a = up;
+        }
+        a
+    }
+    let mut first: HashMap<(u32, u32), u32> = HashMap::new();
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let key = (a.min(b), a.max(b));
+            match first.get(&key) {
+                Some(&other) => {
+                    let (ra, rb) = (find(&mut parent, t as u32), find(&mut parent, other));
+                    if ra != rb {
+                        parent[ra.max(rb) as usize] = ra.min(rb);
+                    }
+                }
+                None => {
+                    first.insert(key, t as u32);
+                }
+            }
+        }
+    }
+    let roots: Vec<u32> = (0..tris.len() as u32)
+        .map(|t| find(&mut parent, t))
+        .collect();
+    // Each part's six times signed volume and bounding box.
+    let mut parts: HashMap<u32, (Real, Vec3, Vec3)> = HashMap::new();
+    for (tri, &r) in tris.iter().zip(&roots) {
+        let [a, b, c] = tri.map(|i| points[i as usize]);
+        let e = parts.entry(r).or_insert((
+            0.0,
+            Vec3::splat(Real::INFINITY),
+            Vec3::splat(-Real::INFINITY),
+        ));
+        e.0 += a.dot(b.cross(c));
+        for p in [a, b, c] {
+            e.1 = e.1.min(p);
+            e.2 = e.2.max(p);
+        }
+    }
+    if parts
+        .values()
+        .any(|&(v, lo, hi)| v.abs() <= 1e-9 * (hi - lo).length().powi(3))
+    {
+        return false;
+    }
+    for (tri, r) in tris.iter_mut().zip(&roots) {
+        if parts[r].0 < 0.0 {
+            tri.swap(1, 2);
+        }
+    }
+    true
+}
+
+/// FNV-1a (64 bits) of a model's vertices (each coordinate's 8 bytes, little-endian) and
+/// triangles (each index's 4 bytes): the content of a mesh as read, whatever the file's
+/// formatting.
+pub fn mesh_digest(vertices: &[Vec3], triangles: &[[u32; 3]]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    eat(&(vertices.len() as u64).to_le_bytes());
+    for v in vertices {
+        for c in v.to_array() {
+            eat(&c.to_le_bytes());
+        }
+    }
+    eat(&(triangles.len() as u64).to_le_bytes());
+    for t in triangles {
+        for i in t {
+            eat(&i.to_le_bytes());
+        }
+    }
+    h
+}
+
+/// The copy of a model of digest `digest` in a run folder: `meshes/<16 hex digits>.obj`.
+pub fn copy_name(digest: u64) -> String {
+    format!("meshes/{digest:016x}.obj")
+}
+
+/// `run.json`'s form of a mesh: its placement, and the model by reference (`copy`, the copy
+/// of it in the run folder, and its `digest`, [`mesh_digest`] as 16 hex digits) so that
+/// `run.json` stays a few kilobytes whatever the mesh. Older files (and readers that put the
+/// model back, `wetcloth_export::read_run_json`) give the model inline as `vertices` and
+/// `triangles`.
 #[cfg(feature = "serde")]
 #[derive(serde::Serialize, serde::Deserialize)]
 struct MeshRepr {
@@ -417,7 +570,15 @@ struct MeshRepr {
     position: [Real; 3],
     rotation: [Real; 3],
     scale: Real,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    copy: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    digest: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    triangle_count: Option<u64>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     vertices: Vec<[Real; 3]>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     triangles: Vec<[u32; 3]>,
 }
 
@@ -425,6 +586,11 @@ struct MeshRepr {
 impl TryFrom<MeshRepr> for Mesh {
     type Error = MeshError;
     fn try_from(r: MeshRepr) -> Result<Self, MeshError> {
+        if r.triangles.is_empty()
+            && let Some(copy) = r.copy
+        {
+            return Err(MeshError::NotInline { copy });
+        }
         Mesh::new(
             r.file,
             r.vertices.into_iter().map(Vec3::from).collect(),
@@ -444,8 +610,11 @@ impl From<Mesh> for MeshRepr {
             position: m.position.to_array(),
             rotation: m.rotation.to_array(),
             scale: m.scale,
-            vertices: m.vertices.iter().map(|v| v.to_array()).collect(),
-            triangles: m.triangles.to_vec(),
+            copy: Some(copy_name(m.digest)),
+            digest: Some(format!("{:016x}", m.digest)),
+            triangle_count: Some(m.triangles.len() as u64),
+            vertices: Vec::new(),
+            triangles: Vec::new(),
         }
     }
 }

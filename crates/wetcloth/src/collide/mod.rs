@@ -330,7 +330,7 @@ impl Collider {
         if !(self.friction.is_finite() && (0.0..=10.0).contains(&self.friction)) {
             return Err(ConfigError::OutOfRange {
                 key: key("friction"),
-                value: self.friction.to_string(),
+                value: crate::math::num(self.friction),
                 range: "[0, 10]".into(),
             });
         }

@@ -151,7 +151,7 @@ pub(crate) fn validate(keys: &[Key], key: &dyn Fn(&str) -> String) -> Result<(),
         if !(k.time.is_finite() && (0.0..=1e6).contains(&k.time)) {
             return Err(ConfigError::OutOfRange {
                 key: name("time"),
-                value: k.time.to_string(),
+                value: crate::math::num(k.time),
                 range: "[0, 1e6] s".into(),
             });
         }
@@ -160,8 +160,11 @@ pub(crate) fn validate(keys: &[Key], key: &dyn Fn(&str) -> String) -> Result<(),
         {
             return Err(ConfigError::OutOfRange {
                 key: name("time"),
-                value: k.time.to_string(),
-                range: format!("after the previous key's time {t} s (keys strictly increasing)"),
+                value: crate::math::num(k.time),
+                range: format!(
+                    "after the previous key's time {} s (keys strictly increasing)",
+                    crate::math::num(t)
+                ),
             });
         }
         before = Some(k.time);
@@ -169,7 +172,7 @@ pub(crate) fn validate(keys: &[Key], key: &dyn Fn(&str) -> String) -> Result<(),
             if !(v.is_finite() && v.abs().max_element() <= 1e6) {
                 return Err(ConfigError::OutOfRange {
                     key: name(field),
-                    value: format!("[{}, {}, {}]", v.x, v.y, v.z),
+                    value: crate::math::num3(v),
                     range: "each component in [-1e6, 1e6]".into(),
                 });
             }

@@ -62,7 +62,7 @@ impl Sphere {
         if !(r.is_finite() && r > 0.0 && r <= 1e4) {
             return Err(ConfigError::OutOfRange {
                 key: key("radius"),
-                value: r.to_string(),
+                value: crate::math::num(r),
                 range: "(0, 1e4]".into(),
             });
         }

@@ -89,14 +89,17 @@ impl GrabSpec {
             if !(k.time.is_finite() && k.time >= 0.0 && k.time > last) {
                 return Err(ConfigError::OutOfRange {
                     key: format!("grab[{index}].keys[{n}].time"),
-                    value: k.time.to_string(),
-                    range: format!("> {last} (key times must be >= 0 and strictly increase)"),
+                    value: crate::math::num(k.time),
+                    range: format!(
+                        "> {} (key times must be >= 0 and strictly increase)",
+                        crate::math::num(last)
+                    ),
                 });
             }
             if !(k.offset.is_finite() && k.offset.abs().max_element() <= 1e4) {
                 return Err(ConfigError::OutOfRange {
                     key: format!("grab[{index}].keys[{n}].offset"),
-                    value: format!("[{}, {}, {}]", k.offset.x, k.offset.y, k.offset.z),
+                    value: crate::math::num3(k.offset),
                     range: "each component in [-1e4, 1e4]".into(),
                 });
             }

@@ -23,6 +23,9 @@ pub struct Control {
     pub(crate) hand_work: Real,
     /// Summed magnitude of the work the moving colliders have done on the cloth since t = 0, J.
     pub(crate) collider_work: Real,
+    /// Summed magnitude of the work the water film's pull (the pockets model's
+    /// `wet_adhesion`) has done on the cloth since t = 0, J.
+    pub(crate) film_work: Real,
 }
 
 impl Control {
@@ -35,6 +38,7 @@ impl Control {
             held: vec![false; n],
             hand_work: 0.0,
             collider_work: 0.0,
+            film_work: 0.0,
         }
     }
 
@@ -73,6 +77,19 @@ impl Control {
     /// Summed magnitude of the work the moving colliders have done on the cloth since t = 0, J.
     pub fn collider_work(&self) -> Real {
         self.collider_work
+    }
+
+    /// Summed magnitude of the work the water film's pull has done on the cloth since t = 0,
+    /// J (the pockets model with `[cloth] wet_adhesion`; 0 otherwise).
+    pub fn film_work(&self) -> Real {
+        self.film_work
+    }
+
+    /// The work done on the cloth from outside its mechanical energy since t = 0, J: the
+    /// hands', the moving colliders' and the water film's (summed magnitudes), which the
+    /// energy audit allows for.
+    pub fn external_work(&self) -> Real {
+        self.hand_work + self.collider_work + self.film_work
     }
 
     /// Removes grab `index`, releasing its particle.

@@ -29,6 +29,7 @@ use crate::collide::StickingPlane;
 use crate::control::GrabSpec;
 use crate::error::ConfigError;
 use crate::math::{Real, Vec3};
+use crate::math::{num, num3};
 
 /// Everything a [`crate::Simulation`] needs.
 #[derive(Clone, Debug, PartialEq, Default)]
@@ -51,8 +52,8 @@ fn check_range(key: &str, value: Real, lo: Real, hi: Real) -> Result<(), ConfigE
     } else {
         Err(ConfigError::OutOfRange {
             key: key.to_string(),
-            value: format!("{value}"),
-            range: format!("[{lo}, {hi}]"),
+            value: num(value),
+            range: format!("[{}, {}]", num(lo), num(hi)),
         })
     }
 }
@@ -63,8 +64,8 @@ fn check_open_low(key: &str, value: Real, lo: Real, hi: Real) -> Result<(), Conf
     } else {
         Err(ConfigError::OutOfRange {
             key: key.to_string(),
-            value: format!("{value}"),
-            range: format!("({lo}, {hi}]"),
+            value: num(value),
+            range: format!("({}, {}]", num(lo), num(hi)),
         })
     }
 }
@@ -74,8 +75,8 @@ fn check_vec(key: &str, v: Vec3, lo: Real, hi: Real) -> Result<(), ConfigError> 
         if !(c.is_finite() && c >= lo && c <= hi) {
             return Err(ConfigError::OutOfRange {
                 key: key.to_string(),
-                value: format!("[{}, {}, {}]", v.x, v.y, v.z),
-                range: format!("each component in [{lo}, {hi}]"),
+                value: num3(v),
+                range: format!("each component in [{}, {}]", num(lo), num(hi)),
             });
         }
     }
