@@ -85,25 +85,6 @@ where
     }
 }
 
-/// `f(k, &mut v[k])` for every element `k` of `v`, split over the pool as the other passes.
-pub(crate) fn each_mut<T, F>(v: &mut [T], f: F)
-where
-    T: Send,
-    F: Fn(usize, &mut T) + Sync,
-{
-    if use_pool(v.len()) {
-        v.par_chunks_mut(CHUNK).enumerate().for_each(|(b, c)| {
-            for (i, t) in c.iter_mut().enumerate() {
-                f(b * CHUNK + i, t);
-            }
-        });
-    } else {
-        for (k, t) in v.iter_mut().enumerate() {
-            f(k, t);
-        }
-    }
-}
-
 /// `p += c`, component-wise.
 pub(crate) fn add_assign(p: &mut Soa, c: &Soa) {
     let pooled = use_pool(p.len());

@@ -64,8 +64,6 @@ pub(super) enum Change {
     Matrix,
     /// Particle `k`'s constraint (and with it its row's drag) changed.
     Row(usize),
-    /// Every row's diagonal was taken anew (after [`Change::Matrix`]).
-    AllRows,
     /// Springs went onto their strain limit's stiff branch: the next step linearises all anew.
     Stiffened,
     /// The multigrid hierarchy was built from the matrix as it is.
@@ -100,7 +98,6 @@ impl Kept {
                     self.av_rows.push(k as u32);
                 }
             }
-            Change::AllRows => self.mg_built = false,
             Change::Stiffened => self.lin_fresh = false,
             Change::MultigridBuilt => self.mg_built = true,
         }
@@ -202,7 +199,6 @@ impl Implicit {
     /// so the result has the same bits: a cloth pressed flat moves a few dozen particles a solve
     /// and the product cost as much as the rest of its step. Otherwise (or where more than an
     /// eighth of the particles moved) the whole product.
-    #[inline(never)]
     pub(super) fn apply_v(&mut self, sys: &System<'_>) {
         let (nx, nz) = (sys.nx, sys.nz);
         let n = nx * nz;
@@ -257,7 +253,6 @@ impl Implicit {
     /// has the last one's size (the inertia and `dt^2` the same) and no gas spring acts now or
     /// then; on a cloth the vacuum pins, a step's first product then costs a few dozen rows
     /// instead of the whole grid.
-    #[inline(never)]
     pub(super) fn keep_product(&mut self, sys: &System<'_>, fresh: bool) {
         let gas_free = self.gas.iter().all(|&g| g == 0.0);
         if !(fresh

@@ -534,7 +534,6 @@ impl Implicit {
     /// constrained ([`landing_constraint`], marked in `landed` where they went through its
     /// surface), held ones outside the friction cone slide ([`Implicit::held_change`]).
     /// Returns whether the contact set changed enough to solve again.
-    #[inline(never)]
     pub(super) fn update_contacts(
         &mut self,
         model: &Model,

@@ -151,7 +151,35 @@ impl Implicit {
         a: usize,
         term: impl Fn(&SpringSet, usize, usize, usize, bool) -> Vec3,
     ) -> Vec3 {
-        stencil_sum(&self.springs, sys.nx, sys.nz, a, Vec3::ZERO, term)
+        let (nx, nz) = (sys.nx, sys.nz);
+        let (i, j) = (a % nx, a / nx);
+        let st = &self.springs;
+        let mut h = Vec3::ZERO;
+        if j > 0 && i > 0 {
+            h += term(&st.diag, a - nx - 1, 0, nx + 1, false);
+        }
+        if j > 0 && i + 1 < nx {
+            h += term(&st.anti, a - nx, 1, nx, false);
+        }
+        if i + 1 < nx {
+            h += term(&st.right, a, 0, 1, true);
+        }
+        if i > 0 {
+            h += term(&st.right, a - 1, 0, 1, false);
+        }
+        if j + 1 < nz && i + 1 < nx {
+            h += term(&st.diag, a, 0, nx + 1, true);
+        }
+        if j + 1 < nz && i > 0 {
+            h += term(&st.anti, a - 1, 1, nx, true);
+        }
+        if j + 1 < nz {
+            h += term(&st.down, a, 0, nx, true);
+        }
+        if j > 0 {
+            h += term(&st.down, a - nx, 0, nx, false);
+        }
+        h
     }
 
     /// Particle `a`'s sum of its springs' diagonal blocks with the bits of the whole pass
@@ -163,43 +191,4 @@ impl Implicit {
             Vec3::splat(set.ks[e]) + d * d * set.kd[e]
         })
     }
-}
-
-/// [`Implicit::stencil_sum`] on the springs `st` of an `nx` x `nz` grid, added to `init`.
-#[inline]
-pub(super) fn stencil_sum(
-    st: &Stencil,
-    nx: usize,
-    nz: usize,
-    a: usize,
-    init: Vec3,
-    term: impl Fn(&SpringSet, usize, usize, usize, bool) -> Vec3,
-) -> Vec3 {
-    let (i, j) = (a % nx, a / nx);
-    let mut h = init;
-    if j > 0 && i > 0 {
-        h += term(&st.diag, a - nx - 1, 0, nx + 1, false);
-    }
-    if j > 0 && i + 1 < nx {
-        h += term(&st.anti, a - nx, 1, nx, false);
-    }
-    if i + 1 < nx {
-        h += term(&st.right, a, 0, 1, true);
-    }
-    if i > 0 {
-        h += term(&st.right, a - 1, 0, 1, false);
-    }
-    if j + 1 < nz && i + 1 < nx {
-        h += term(&st.diag, a, 0, nx + 1, true);
-    }
-    if j + 1 < nz && i > 0 {
-        h += term(&st.anti, a - 1, 1, nx, true);
-    }
-    if j + 1 < nz {
-        h += term(&st.down, a, 0, nx, true);
-    }
-    if j > 0 {
-        h += term(&st.down, a - nx, 0, nx, false);
-    }
-    h
 }

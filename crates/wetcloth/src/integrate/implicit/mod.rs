@@ -68,7 +68,6 @@ use crate::checks;
 use crate::collide::Collider;
 use crate::collide::contact::{self, Frames};
 use crate::control::Control;
-use crate::exec;
 use crate::forces::pressure;
 use crate::math::{Real, RowMut, Soa, Vec3, row};
 use crate::model::Model;
@@ -168,8 +167,6 @@ pub(crate) struct Implicit {
     budget: SolveBudget,
     /// The colliders of the step where any moves ([`Surface::of_step`]).
     surfaces: Vec<Surface>,
-    /// Scratch of the particles' moves at the step's end.
-    moves: Vec<Move>,
     /// The squared residual the step's first solve started from (the interactive budget's
     /// reference, with the right-hand side's).
     first_residual: Option<Real>,
@@ -215,7 +212,6 @@ impl Implicit {
             budget,
             first_residual: None,
             surfaces: Vec::new(),
-            moves: Vec::new(),
         }
     }
 
@@ -316,7 +312,6 @@ impl Implicit {
 
     /// The air as regions (a pressure known now, the explicit timing, is no gas spring in the
     /// solve), each region's gas spring `dt^2 k_r`, and the air's share of the step.
-    #[inline(never)]
     fn begin_air(
         &mut self,
         model: &Model,
@@ -342,7 +337,6 @@ impl Implicit {
 
     /// The colliders where they are over the step (empty where none moves: the contacts read
     /// the model's own).
-    #[inline(never)]
     fn place_colliders(&mut self, model: &Model, start: Real, dt: Real) -> Vec<Surface> {
         let mut surfaces = std::mem::take(&mut self.surfaces);
         Surface::of_step(model, start, dt, &mut surfaces);
@@ -351,32 +345,26 @@ impl Implicit {
 
     /// The inertia `M (1 + dt c)`, the right-hand side `M v + dt f`, the first guess of `v+`,
     /// and (in `r`, free until the solve) the velocity at the step's start.
-    #[inline(never)]
     fn right_hand_side(&mut self, model: &Model, state: &State, dt: Real) {
         let c = model.damping;
         let Motion::Previous(prev) = &state.motion else {
             unreachable!("converted by the step")
         };
-        let start = |k: usize| (state.x.get(k) - prev.get(k)) / dt;
-        exec::each_mut(&mut self.inertia, |k, i| {
-            *i = model.mass(k) * (1.0 + dt * c)
-        });
-        let force = &self.force;
-        exec::jacobi(&mut self.rhs, |k| {
-            (start(k) * model.mass(k) + force.get(k) * dt, 0)
-        });
-        // First guess: the velocity after gravity alone (exact in free fall); with the
-        // interactive budget, after the last step's acceleration (its few coarse solves start
-        // closer: 22 iterations a step instead of 32 on the pulled demo).
-        let budget = self.budget;
-        exec::jacobi(&mut self.v, |k| {
-            let a = match budget {
+        for k in 0..state.len() {
+            let m = model.mass(k);
+            self.inertia[k] = m * (1.0 + dt * c);
+            let v = (state.x.get(k) - prev.get(k)) / dt;
+            self.rhs.set(k, v * m + self.force.get(k) * dt);
+            // First guess: the velocity after gravity alone (exact in free fall); with the
+            // interactive budget, after the last step's acceleration (its few coarse solves
+            // start closer: 22 iterations a step instead of 32 on the pulled demo).
+            let a = match self.budget {
                 SolveBudget::Converged => model.gravity,
                 SolveBudget::Interactive => state.acceleration.get(k),
             };
-            (start(k) + a * dt, 0)
-        });
-        exec::jacobi(&mut self.r, |k| (start(k), 0));
+            self.v.set(k, v + a * dt);
+            self.r.set(k, v);
+        }
     }
 
     /// The step's first constraints: the hands, then contacts where a particle touches or would
@@ -386,7 +374,6 @@ impl Implicit {
     /// held, a cloth sliding over the table was gripped anew at each step's start: the thesis
     /// demo lifted at 1/60 s pulled the hand with 0.26 N against the explicit 0.14 N. The last
     /// step's final constraints are kept beside this step's (`keep_product`).
-    #[inline(never)]
     fn constrain(
         &mut self,
         model: &Model,
@@ -400,17 +387,45 @@ impl Implicit {
         for (k, target) in control.active() {
             self.constraints[k] = Constraint::Fixed((target - state.x.get(k)) / dt);
         }
-        let r = &self.r;
-        exec::each_mut(&mut self.constraints, |k, c| {
-            if *c == Constraint::Free {
-                *c = first_contact(model, surfaces, state, k, r.get(k), dt);
+        for k in 0..state.len() {
+            if self.constraints[k] != Constraint::Free {
+                continue;
             }
-        });
+            let (x, v) = (state.x.get(k), self.r.get(k));
+            let c = contact_constraint(model, surfaces, k, x, v, dt, state.contact[k]);
+            let Constraint::Stick { n, vn, mu, u } = c else {
+                self.constraints[k] = c;
+                continue;
+            };
+            let vt = c.slip(v);
+            let speed = vt.length();
+            self.constraints[k] = match state.slides[k] {
+                _ if speed <= SLIDE_EPSILON => c,
+                Slide::None => c,
+                Slide::Kinetic(f) => Constraint::Normal {
+                    n,
+                    vn,
+                    mu,
+                    drag: f * dt / speed,
+                    t: vt / speed,
+                    kinetic: f * dt,
+                    u,
+                },
+                Slide::Drag(rate) => Constraint::Normal {
+                    n,
+                    vn,
+                    mu,
+                    drag: rate * dt,
+                    t: Vec3::ZERO,
+                    kinetic: 0.0,
+                    u,
+                },
+            };
+        }
     }
 
     /// The step's diagonal (the preconditioner's), and the last step's product `A v` kept
     /// where it still holds.
-    #[inline(never)]
     fn prepare_matrix(&mut self, sys: &System<'_>) {
         // Read before `precondition` consumes them.
         let product_current = self.kept.av_fresh && self.kept.diag_kept;
@@ -425,7 +440,6 @@ impl Implicit {
     /// land inside a collider are constrained, the air's pressures follow the solve, and springs
     /// the solve takes past the strain limit stiffen; the solve whose changes are none (or the
     /// last allowed) is finished to the full tolerance.
-    #[inline(never)]
     fn solve_contacts(
         &mut self,
         sys: &System<'_>,
@@ -484,7 +498,6 @@ impl Implicit {
     /// The bubble's pressure, once more from the last (accurate) solve: the contact passes
     /// measure the miss after solves stopped at [`CG_CONTACT_TOLERANCE`] and never after the
     /// last one. The contact set is kept. Returns whether the pressure moved.
-    #[inline(never)]
     fn solve_pressure(
         &mut self,
         sys: &System<'_>,
@@ -519,7 +532,6 @@ impl Implicit {
     /// once more. Without it the held `air-400` (1/600 s) crept: its rim slid inwards by 0.8 mm
     /// in 0.37 s, ratcheted by the pressure's few pascals from step to step, and its contact
     /// fraction flickered between 0.415 and 0.45 (the explicit integrator's stays at 0.457).
-    #[inline(never)]
     fn settle_contacts(
         &mut self,
         sys: &System<'_>,
@@ -561,7 +573,6 @@ impl Implicit {
 
     /// The hands' forces from the final solution's residual (thesis 3.2 step 3), and their
     /// work.
-    #[inline(never)]
     fn hand_forces(&mut self, state: &State, control: &mut Control, dt: Real) {
         let mut work = 0.0;
         for (g, target) in control.grabs.iter_mut().zip(&control.targets) {
@@ -581,9 +592,7 @@ impl Implicit {
     /// did not foresee resolved, the contact flags and slides carried to the next step, the
     /// moving colliders' work. Returns the largest squared distance (m^2) from
     /// `fused.reference` and the thesis bubble's volume change by its pressure force's measure
-    /// (m^3). Each particle's move is found on its own (over the pool), then applied and its
-    /// sums added in particle order, so the bits do not depend on the thread count.
-    #[inline(never)]
+    /// (m^3).
     fn move_particles(
         &mut self,
         model: &Model,
@@ -593,176 +602,83 @@ impl Implicit {
         fused: &Fused<'_>,
         dt: Real,
     ) -> (Real, Real) {
-        let mut moves = std::mem::take(&mut self.moves);
-        moves.resize(self.v.len(), Move::default());
-        {
-            let (this, state, control) = (&*self, &*state, &*control);
-            exec::each_mut(&mut moves, |k, m| {
-                *m = this.move_one(model, state, control, surfaces, fused.reference, k, dt);
-            });
-        }
         let Motion::Previous(prev) = &mut state.motion else {
             unreachable!("converted by the step")
         };
         let mut moved: Real = 0.0;
+        let single_still = model.colliders.len() == 1 && model.moving.is_empty();
+        let bubble = self.air.measures_bubble();
         let mut volume_change = 0.0;
         // The moving colliders' work on the cloth over the step, J (magnitudes summed, as the
         // explicit integrator's).
         let mut surface_work = 0.0;
-        for (k, m) in moves.iter().enumerate() {
-            moved = moved.max(m.distance2);
-            volume_change += m.volume;
-            surface_work += m.pushed;
-            surface_work += m.resolved;
-            state.contact[k] = m.touched;
-            state.slides[k] = m.slide;
-            state.acceleration.set(k, m.acceleration);
-            prev.set(k, m.to);
+        for k in 0..self.v.len() {
+            let x = state.x.get(k);
+            let v = self.v.get(k);
+            let mut touched = false;
+            if let Constraint::Normal { n: normal, u, .. }
+            | Constraint::Stick { n: normal, u, .. } = self.constraints[k]
+            {
+                // Touching while the surface pushes.
+                let lambda = self.kept.av.get(k) - self.rhs.get(k);
+                touched = lambda.dot(normal) > 0.0;
+                // A moving surface works on the cloth it pushes and carries: the contact's
+                // impulse (N s) times the surface's velocity (m/s).
+                if u != Vec3::ZERO {
+                    surface_work += lambda.dot(u).abs();
+                }
+            }
+            let mut to = x + v * dt;
+            if let Constraint::Fixed(_) = self.constraints[k] {
+                to = control
+                    .active()
+                    .find(|&(p, _)| p == k)
+                    .map_or(to, |(_, t)| t);
+            } else if !model.colliders.is_empty() {
+                // A contact of the solve against the only (still) collider already ends on its
+                // surface; anything else is checked.
+                let settled = single_still
+                    && matches!(
+                        self.constraints[k],
+                        Constraint::Stick { .. } | Constraint::Normal { .. }
+                    );
+                if !settled {
+                    let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
+                    let (p, hit) = if surfaces.is_empty() {
+                        contact::resolve_scaled(&model.colliders, x, to, model.radius, scale)
+                    } else {
+                        let (p, hit, w) =
+                            resolve_surfaces(surfaces, x, to, model, k, scale, dt * dt);
+                        surface_work += w;
+                        (p, hit)
+                    };
+                    to = p;
+                    touched |= hit;
+                }
+                if let Some(reference) = fused.reference {
+                    moved = moved.max((to - reference.get(k)).length_squared());
+                }
+            }
+            if bubble && self.regions.of(k).is_some() {
+                volume_change += self.per_pascal.get(k).dot(to - x);
+            }
+            state.contact[k] = touched;
+            state.slides[k] = match self.constraints[k] {
+                Constraint::Normal { t, kinetic, .. } if touched && t != Vec3::ZERO => {
+                    Slide::Kinetic(kinetic / dt)
+                }
+                Constraint::Normal { drag, .. } if touched => Slide::Drag(drag / dt),
+                _ => Slide::None,
+            };
+            // The step's mean acceleration: from the velocity at its start (the bits the
+            // first guess started from) to the one it ends with.
+            let v0 = (x - prev.get(k)) / dt;
+            state.acceleration.set(k, ((to - x) / dt - v0) / dt);
+            prev.set(k, to);
         }
         std::mem::swap(prev, &mut state.x);
         control.collider_work += surface_work;
-        self.moves = moves;
         (moved, volume_change)
-    }
-
-    /// Particle `k`'s move (see [`Implicit::move_particles`]).
-    #[allow(clippy::too_many_arguments)] // one particle of the step
-    #[inline]
-    fn move_one(
-        &self,
-        model: &Model,
-        state: &State,
-        control: &Control,
-        surfaces: &[Surface],
-        reference: Option<&Soa>,
-        k: usize,
-        dt: Real,
-    ) -> Move {
-        let Motion::Previous(prev) = &state.motion else {
-            unreachable!("converted by the step")
-        };
-        let single_still = model.colliders.len() == 1 && model.moving.is_empty();
-        let x = state.x.get(k);
-        let v = self.v.get(k);
-        let mut m = Move::default();
-        if let Constraint::Normal { n: normal, u, .. } | Constraint::Stick { n: normal, u, .. } =
-            self.constraints[k]
-        {
-            // Touching while the surface pushes.
-            let lambda = self.kept.av.get(k) - self.rhs.get(k);
-            m.touched = lambda.dot(normal) > 0.0;
-            // A moving surface works on the cloth it pushes and carries: the contact's
-            // impulse (N s) times the surface's velocity (m/s).
-            if u != Vec3::ZERO {
-                m.pushed = lambda.dot(u).abs();
-            }
-        }
-        let mut to = x + v * dt;
-        if let Constraint::Fixed(_) = self.constraints[k] {
-            to = control
-                .active()
-                .find(|&(p, _)| p == k)
-                .map_or(to, |(_, t)| t);
-        } else if !model.colliders.is_empty() {
-            // A contact of the solve against the only (still) collider already ends on its
-            // surface; anything else is checked.
-            let settled = single_still
-                && matches!(
-                    self.constraints[k],
-                    Constraint::Stick { .. } | Constraint::Normal { .. }
-                );
-            if !settled {
-                let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
-                let (p, hit) = if surfaces.is_empty() {
-                    contact::resolve_scaled(&model.colliders, x, to, model.radius, scale)
-                } else {
-                    let (p, hit, w) = resolve_surfaces(surfaces, x, to, model, k, scale, dt * dt);
-                    m.resolved = w;
-                    (p, hit)
-                };
-                to = p;
-                m.touched |= hit;
-            }
-            if let Some(reference) = reference {
-                m.distance2 = (to - reference.get(k)).length_squared();
-            }
-        }
-        if self.air.measures_bubble() && self.regions.of(k).is_some() {
-            m.volume = self.per_pascal.get(k).dot(to - x);
-        }
-        m.slide = match self.constraints[k] {
-            Constraint::Normal { t, kinetic, .. } if m.touched && t != Vec3::ZERO => {
-                Slide::Kinetic(kinetic / dt)
-            }
-            Constraint::Normal { drag, .. } if m.touched => Slide::Drag(drag / dt),
-            _ => Slide::None,
-        };
-        // The step's mean acceleration: from the velocity at its start (the bits the first
-        // guess started from) to the one it ends with.
-        let v0 = (x - prev.get(k)) / dt;
-        m.acceleration = ((to - x) / dt - v0) / dt;
-        m.to = to;
-        m
-    }
-}
-
-/// One particle's move at the end of a step ([`Implicit::move_particles`]).
-#[derive(Clone, Copy, Debug, Default)]
-struct Move {
-    /// Its end position (m) and the step's mean acceleration (m/s^2).
-    to: Vec3,
-    acceleration: Vec3,
-    /// Whether it touches a collider at the end, and the slide it carries to the next step.
-    touched: bool,
-    slide: Slide,
-    /// Its squared distance from the self-collision lists' reference (m^2; 0 if none).
-    distance2: Real,
-    /// Its share of the thesis bubble's volume change by the pressure force's measure (m^3).
-    volume: Real,
-    /// The moving colliders' work on it (J): through the solve's contact, and through the
-    /// end-of-step resolution.
-    pushed: Real,
-    resolved: Real,
-}
-
-/// The first constraint of a free particle `k` moving at `v` (m/s) at the step's start: its
-/// contact if it touches or would reach a collider ([`contact_constraint`]), sliding against
-/// the friction it had if it ended the last step sliding and still moves, else held.
-fn first_contact(
-    model: &Model,
-    surfaces: &[Surface],
-    state: &State,
-    k: usize,
-    v: Vec3,
-    dt: Real,
-) -> Constraint {
-    let c = contact_constraint(model, surfaces, k, state.x.get(k), v, dt, state.contact[k]);
-    let Constraint::Stick { n, vn, mu, u } = c else {
-        return c;
-    };
-    let vt = c.slip(v);
-    let speed = vt.length();
-    match state.slides[k] {
-        _ if speed <= SLIDE_EPSILON => c,
-        Slide::None => c,
-        Slide::Kinetic(f) => Constraint::Normal {
-            n,
-            vn,
-            mu,
-            drag: f * dt / speed,
-            t: vt / speed,
-            kinetic: f * dt,
-            u,
-        },
-        Slide::Drag(rate) => Constraint::Normal {
-            n,
-            vn,
-            mu,
-            drag: rate * dt,
-            t: Vec3::ZERO,
-            kinetic: 0.0,
-            u,
-        },
     }
 }
 

@@ -28,9 +28,6 @@ impl Implicit {
             self.kept.row_mark = mark;
             #[cfg(test)]
             self.check_diagonal(sys, &h);
-        } else if exec::use_pool(n) {
-            // Each particle's sum on its own, over the pool, with the bits of the pass below.
-            exec::jacobi(&mut h, |a| (self.diag_exact(sys, a), 0));
         } else {
             for v in [&mut h.x, &mut h.y, &mut h.z] {
                 v.fill(0.0);
@@ -42,36 +39,31 @@ impl Implicit {
             }
         }
         let mut base = std::mem::take(&mut self.diag_base);
-        exec::jacobi(&mut base, |a| {
+        for a in 0..n {
             let mut d = Vec3::splat(self.inertia[a]) + h.get(a) * sys.dt2;
             if let Some(r) = sys.regions.of(a) {
                 let g = self.per_pascal.get(a);
                 d += g * g * self.gas[r];
             }
-            (d, 0)
-        });
+            base.set(a, d);
+        }
         self.diag_base = base;
         self.kept.diag_springs = h;
-        // Every row's inverse diagonal anew (the product is stale already).
-        self.kept.notify(Change::AllRows);
-        let mut inv = std::mem::take(&mut self.inv_diag);
-        exec::jacobi(&mut inv, |a| {
-            (
-                inverse_diagonal(self.diag_base.get(a), self.constraints[a]),
-                0,
-            )
-        });
-        self.inv_diag = inv;
+        for a in 0..n {
+            self.precondition_one(a);
+        }
     }
 
     /// The inverse diagonal at particle `k` after its constraint changed (a slide's drag).
     pub(super) fn precondition_one(&mut self, k: usize) {
         // The multigrid's matrix and the kept product have this row as it was.
         self.kept.notify(Change::Row(k));
-        self.inv_diag.set(
-            k,
-            inverse_diagonal(self.diag_base.get(k), self.constraints[k]),
-        );
+        let d = self.diag_base.get(k);
+        let d = match self.constraints[k] {
+            Constraint::Normal { n, drag, t, .. } => d + (Vec3::ONE - n * n - t * t) * drag,
+            _ => d,
+        };
+        self.inv_diag.set(k, Vec3::ONE / d);
     }
 
     /// `z = M^-1 r` on the active particles: the diagonal, or the multigrid V-cycle with the
@@ -264,15 +256,4 @@ impl Implicit {
         self.active = active;
         it
     }
-}
-
-/// The inverse of a row's diagonal `d` (without friction drag) under the constraint `c`: a
-/// slide's drag added across its direction.
-#[inline]
-fn inverse_diagonal(d: Vec3, c: Constraint) -> Vec3 {
-    let d = match c {
-        Constraint::Normal { n, drag, t, .. } => d + (Vec3::ONE - n * n - t * t) * drag,
-        _ => d,
-    };
-    Vec3::ONE / d
 }

@@ -3,7 +3,6 @@
 //! and the step's forces (gravity, springs, the pressure force per pascal).
 
 use super::*;
-use rayon::prelude::*;
 
 /// The linearised springs of one stencil direction, indexed by the spring's first particle:
 /// unit direction `d` and the two stiffnesses of `H_e = ks I + kd d d^T` (N/m).
@@ -45,7 +44,44 @@ impl SpringSet {
         (k, l): (Real, Real),
         limit: Limit,
     ) {
-        self.whole().set(x, range, oa, ob, (k, l), limit);
+        let (e0, e1) = (range.start, range.end);
+        let (lmax, kl) = (limit.length, limit.stiffness);
+        let (a0, a1, b0, b1) = (e0 + oa, e1 + oa, e0 + ob, e1 + ob);
+        let (xa, ya, za) = (&x.x[a0..a1], &x.y[a0..a1], &x.z[a0..a1]);
+        let (xb, yb, zb) = (&x.x[b0..b1], &x.y[b0..b1], &x.z[b0..b1]);
+        let (dx, dy, dz) = (
+            &mut self.d.x[e0..e1],
+            &mut self.d.y[e0..e1],
+            &mut self.d.z[e0..e1],
+        );
+        let (ks, kd) = (&mut self.ks[e0..e1], &mut self.kd[e0..e1]);
+        let tension = &mut self.f[e0..e1];
+        let taut = &mut self.taut[e0..e1];
+        let (wx, wy, wz) = (
+            &mut self.w.x[e0..e1],
+            &mut self.w.y[e0..e1],
+            &mut self.w.z[e0..e1],
+        );
+        for e in 0..e1 - e0 {
+            let (px, py, pz) = (xb[e] - xa[e], yb[e] - ya[e], zb[e] - za[e]);
+            let len = (px * px + py * py + pz * pz).sqrt();
+            let live = len >= 1e-12;
+            let safe = if live { len } else { 1.0 };
+            let (ux, uy, uz) = (px / safe, py / safe, pz / safe);
+            // Beyond the strain limit the spring stiffens by `kl`.
+            let over = (len - lmax).max(0.0);
+            taut[e] = over > 0.0;
+            let (f, hs, hd) = linearise(k, l, kl, safe, over, over > 0.0);
+            dx[e] = if live { ux } else { 0.0 };
+            dy[e] = if live { uy } else { 0.0 };
+            dz[e] = if live { uz } else { 0.0 };
+            ks[e] = if live { hs } else { 0.0 };
+            kd[e] = if live { hd } else { 0.0 };
+            tension[e] = if live { f } else { 0.0 };
+            wx[e] = if live { ux * f } else { 0.0 };
+            wy[e] = if live { uy * f } else { 0.0 };
+            wz[e] = if live { uz * f } else { 0.0 };
+        }
     }
 
     /// In the unit tests: the springs in `range` have the bits of `whole`'s.
@@ -73,53 +109,16 @@ impl SpringSet {
     /// The forces `w = d f` of the springs `e` in `range` as their last linearisation left
     /// them (their particles have not moved since): the bits [`SpringSet::set_range`] gives.
     pub(super) fn kept_range(&mut self, range: std::ops::Range<usize>) {
-        self.whole().kept(range);
-    }
-
-    /// A view of all its springs.
-    fn whole(&mut self) -> SpringRows<'_> {
-        SpringRows {
-            start: 0,
-            d: [&mut self.d.x, &mut self.d.y, &mut self.d.z],
-            ks: &mut self.ks,
-            kd: &mut self.kd,
-            w: [&mut self.w.x, &mut self.w.y, &mut self.w.z],
-            f: &mut self.f,
-            taut: &mut self.taut,
+        let (e0, e1) = (range.start, range.end);
+        for (w, d) in [
+            (&mut self.w.x, &self.d.x),
+            (&mut self.w.y, &self.d.y),
+            (&mut self.w.z, &self.d.z),
+        ] {
+            for ((w, d), f) in w[e0..e1].iter_mut().zip(&d[e0..e1]).zip(&self.f[e0..e1]) {
+                *w = d * f;
+            }
         }
-    }
-
-    /// Views of its springs `rows` at a time (the springs of a grid row each, with `rows` its
-    /// width), over the thread pool.
-    pub(super) fn par_rows(
-        &mut self,
-        rows: usize,
-    ) -> impl IndexedParallelIterator<Item = SpringRows<'_>> {
-        (
-            self.d.x.par_chunks_mut(rows),
-            self.d.y.par_chunks_mut(rows),
-            self.d.z.par_chunks_mut(rows),
-            self.ks.par_chunks_mut(rows),
-            self.kd.par_chunks_mut(rows),
-            self.w.x.par_chunks_mut(rows),
-            self.w.y.par_chunks_mut(rows),
-            self.w.z.par_chunks_mut(rows),
-            self.f.par_chunks_mut(rows),
-            self.taut.par_chunks_mut(rows),
-        )
-            .into_par_iter()
-            .enumerate()
-            .map(
-                move |(j, (dx, dy, dz, ks, kd, wx, wy, wz, f, taut))| SpringRows {
-                    start: j * rows,
-                    d: [dx, dy, dz],
-                    ks,
-                    kd,
-                    w: [wx, wy, wz],
-                    f,
-                    taut,
-                },
-            )
     }
 
     /// Puts the springs `e` in `range` (stiffness `k`, rest length `l`, as in
@@ -275,79 +274,6 @@ impl SpringSet {
     }
 }
 
-/// A mutable view of the springs `start..start + len` of a [`SpringSet`]: the linearisation
-/// of a run of them, on the calling thread or as one task of the pool. Every spring's values
-/// are its own, so any split gives the same bits.
-pub(super) struct SpringRows<'a> {
-    start: usize,
-    d: [&'a mut [Real]; 3],
-    ks: &'a mut [Real],
-    kd: &'a mut [Real],
-    w: [&'a mut [Real]; 3],
-    f: &'a mut [Real],
-    taut: &'a mut [bool],
-}
-
-impl SpringRows<'_> {
-    /// Linearises the springs `range` (indices of the whole set) between particles `e + oa`
-    /// and `e + ob` at positions `x`: springs of stiffness `k` (N/m) and rest length `l` (m)
-    /// under `limit`.
-    pub(super) fn set(
-        &mut self,
-        x: &Soa,
-        range: std::ops::Range<usize>,
-        oa: usize,
-        ob: usize,
-        (k, l): (Real, Real),
-        limit: Limit,
-    ) {
-        let (e0, e1) = (range.start, range.end);
-        let (lmax, kl) = (limit.length, limit.stiffness);
-        let (a0, a1, b0, b1) = (e0 + oa, e1 + oa, e0 + ob, e1 + ob);
-        let (xa, ya, za) = (&x.x[a0..a1], &x.y[a0..a1], &x.z[a0..a1]);
-        let (xb, yb, zb) = (&x.x[b0..b1], &x.y[b0..b1], &x.z[b0..b1]);
-        let (s0, s1) = (e0 - self.start, e1 - self.start);
-        let [dx, dy, dz] = &mut self.d;
-        let (dx, dy, dz) = (&mut dx[s0..s1], &mut dy[s0..s1], &mut dz[s0..s1]);
-        let (ks, kd) = (&mut self.ks[s0..s1], &mut self.kd[s0..s1]);
-        let tension = &mut self.f[s0..s1];
-        let taut = &mut self.taut[s0..s1];
-        let [wx, wy, wz] = &mut self.w;
-        let (wx, wy, wz) = (&mut wx[s0..s1], &mut wy[s0..s1], &mut wz[s0..s1]);
-        for e in 0..e1 - e0 {
-            let (px, py, pz) = (xb[e] - xa[e], yb[e] - ya[e], zb[e] - za[e]);
-            let len = (px * px + py * py + pz * pz).sqrt();
-            let live = len >= 1e-12;
-            let safe = if live { len } else { 1.0 };
-            let (ux, uy, uz) = (px / safe, py / safe, pz / safe);
-            // Beyond the strain limit the spring stiffens by `kl`.
-            let over = (len - lmax).max(0.0);
-            taut[e] = over > 0.0;
-            let (f, hs, hd) = linearise(k, l, kl, safe, over, over > 0.0);
-            dx[e] = if live { ux } else { 0.0 };
-            dy[e] = if live { uy } else { 0.0 };
-            dz[e] = if live { uz } else { 0.0 };
-            ks[e] = if live { hs } else { 0.0 };
-            kd[e] = if live { hd } else { 0.0 };
-            tension[e] = if live { f } else { 0.0 };
-            wx[e] = if live { ux * f } else { 0.0 };
-            wy[e] = if live { uy * f } else { 0.0 };
-            wz[e] = if live { uz * f } else { 0.0 };
-        }
-    }
-
-    /// The forces of the springs `range` (indices of the whole set) from their kept
-    /// linearisation: `w = d f`.
-    pub(super) fn kept(&mut self, range: std::ops::Range<usize>) {
-        let (s0, s1) = (range.start - self.start, range.end - self.start);
-        for (w, d) in self.w.iter_mut().zip(&self.d) {
-            for ((w, d), f) in w[s0..s1].iter_mut().zip(&d[s0..s1]).zip(&self.f[s0..s1]) {
-                *w = d * f;
-            }
-        }
-    }
-}
-
 /// A spring of stiffness `k` (N/m) and rest length `l` (m) at length `len` (m), `over` (m)
 /// along its strain limit's stiff branch of extra stiffness `kl` (N/m) when `stiff`: its
 /// tension (N) and the two stiffnesses of `H_e = ks I + kd d d^T` (N/m; `ks`, the tension over
@@ -400,27 +326,6 @@ impl Dir {
             Dir::Diag | Dir::Anti => (c.shear, c.rest_diag),
         }
     }
-
-    /// On an `nx` x `nz` grid: the offsets of a spring's two particles from its index, and the
-    /// springs of grid row `j` (those whose index is in the row's run, see [`spans`]).
-    pub(super) fn layout(self, nx: usize, nz: usize, j: usize) -> (usize, usize, Range<usize>) {
-        let row = j * nx..j * nx + nx - 1;
-        let none = j * nx..j * nx;
-        match self {
-            Dir::Right => (0, 1, row),
-            Dir::Diag => (0, nx + 1, if j + 1 < nz { row } else { none }),
-            Dir::Anti => (1, nx, if j + 1 < nz { row } else { none }),
-            Dir::Down => (
-                0,
-                nx,
-                if j + 1 < nz {
-                    j * nx..j * nx + nx
-                } else {
-                    none
-                },
-            ),
-        }
-    }
 }
 
 impl Stencil {
@@ -470,57 +375,22 @@ pub(super) fn spans(nx: usize, nz: usize) -> impl Iterator<Item = Run> {
 impl Implicit {
     /// Springs and their linearisation, gravity, damping-free forces and the pressure force per
     /// pascal at the positions `x`.
-    #[inline(never)]
     pub(super) fn forces(&mut self, model: &Model, x: &Soa) {
         let (nx, nz) = (model.grid.nx, model.grid.nz);
         let c = &model.springs;
         let n = nx * nz;
+        for k in 0..n {
+            self.force.set(k, model.gravity * model.mass(k));
+        }
         // The particles that moved since the springs' last linearisation (all, if it is
         // stale): on a cloth the vacuum pins, nearly none of them from one step to the next.
         let fresh = self.kept.lin_fresh;
-        let lin_x = &self.kept.lin_x;
-        exec::each_mut(&mut self.kept.lin_moved, |k, moved| {
-            *moved = !fresh || !same_bits(x.get(k), lin_x.get(k));
-        });
-        if exec::use_pool(n) {
-            // Over the pool: each grid row's springs linearised as one task, then each
-            // particle's force summed on its own in the order the scatter below adds them.
-            let moved = &self.kept.lin_moved;
-            for dir in [Dir::Right, Dir::Diag, Dir::Anti, Dir::Down] {
-                let (k, l) = dir.constants(c);
-                let limit = Limit::new(model.strain_limit, k, l);
-                self.springs
-                    .get_mut(dir)
-                    .par_rows(nx)
-                    .enumerate()
-                    .for_each(|(j, mut rows)| {
-                        let (oa, ob, run) = dir.layout(nx, nz, j);
-                        linearise_run(&mut rows, x, run, (oa, ob), (k, l), limit, moved);
-                    });
-            }
-            let springs = &self.springs;
-            exec::jacobi(&mut self.force, |a| {
-                let gravity = model.gravity * model.mass(a);
-                let f = stencil_sum(springs, nx, nz, a, gravity, |set, e, _, _, first| {
-                    let w = set.w.get(e);
-                    if first { w } else { -w }
-                });
-                (f, 0)
-            });
-        } else {
-            for k in 0..n {
-                self.force.set(k, model.gravity * model.mass(k));
-            }
-            self.forces_in_runs(model, x, fresh);
+        for k in 0..n {
+            let moved = !fresh || !same_bits(x.get(k), self.kept.lin_x.get(k));
+            self.kept.lin_moved[k] = moved;
         }
-        self.forces_done(model, x, fresh);
-    }
-
-    /// [`Implicit::forces`]' springs on the calling thread: each run linearised where a
-    /// particle of the spring moved (in stretches of such springs, vectorised), its forces
-    /// kept elsewhere, then scattered.
-    fn forces_in_runs(&mut self, model: &Model, x: &Soa, fresh: bool) {
-        let c = &model.springs;
+        // Each run of springs linearised where a particle of the spring moved (in stretches of
+        // such springs, vectorised), its forces kept elsewhere, then scattered.
         for (dir, run, oa, ob) in self.runs.clone().iter().cloned() {
             let (k, l) = dir.constants(c);
             let limit = Limit::new(model.strain_limit, k, l);
@@ -548,13 +418,6 @@ impl Implicit {
             }
             set.scatter_range(&mut self.force, run, oa, ob);
         }
-        #[cfg(not(test))]
-        let _ = fresh;
-    }
-
-    /// [`Implicit::forces`] after the springs: the positions kept, and the pressure force.
-    fn forces_done(&mut self, model: &Model, x: &Soa, fresh: bool) {
-        let (nx, nz) = (model.grid.nx, model.grid.nz);
         for (to, from) in [
             (&mut self.kept.lin_x.x, &x.x),
             (&mut self.kept.lin_x.y, &x.y),
@@ -570,89 +433,39 @@ impl Implicit {
             return;
         }
         let pp = &mut self.per_pascal;
-        let pressure_row =
-            |j: usize, x_out: &mut [Real], y_out: &mut [Real], z_out: &mut [Real]| {
-                x_out.fill(0.0);
-                y_out.fill(0.0);
-                z_out.fill(0.0);
-                let mut out = RowMut {
-                    x: x_out,
-                    y: y_out,
-                    z: z_out,
-                };
-                let here = row(x, nx, j);
-                match model.pressure_force {
-                    PressureForce::Thesis => {
-                        let below = row(x, nx, j.saturating_sub(1));
-                        let above = row(x, nx, (j + 1).min(nz - 1));
-                        pressure::add_row(&mut out, here, below, above, model.area_per_particle);
-                    }
-                    PressureForce::Area => {
-                        let below = (j > 0).then(|| row(x, nx, j - 1));
-                        let above = (j + 1 < nz).then(|| row(x, nx, j + 1));
-                        pressure::add_row_area(&mut out, here, below, above, |_| 1.0);
-                    }
-                }
+        for v in [&mut pp.x, &mut pp.y, &mut pp.z] {
+            v.fill(0.0);
+        }
+        for j in 0..nz {
+            let r = j * nx..(j + 1) * nx;
+            let mut out = RowMut {
+                x: &mut pp.x[r.clone()],
+                y: &mut pp.y[r.clone()],
+                z: &mut pp.z[r.clone()],
             };
-        if exec::use_pool(nx * nz) {
-            (
-                pp.x.par_chunks_mut(nx),
-                pp.y.par_chunks_mut(nx),
-                pp.z.par_chunks_mut(nx),
-            )
-                .into_par_iter()
-                .enumerate()
-                .for_each(|(j, (px, py, pz))| pressure_row(j, px, py, pz));
-        } else {
-            for (j, ((px, py), pz)) in
-                pp.x.chunks_mut(nx)
-                    .zip(pp.y.chunks_mut(nx))
-                    .zip(pp.z.chunks_mut(nx))
-                    .enumerate()
-            {
-                pressure_row(j, px, py, pz);
+            let here = row(x, nx, j);
+            match model.pressure_force {
+                PressureForce::Thesis => {
+                    let below = row(x, nx, j.saturating_sub(1));
+                    let above = row(x, nx, (j + 1).min(nz - 1));
+                    pressure::add_row(&mut out, here, below, above, model.area_per_particle);
+                }
+                PressureForce::Area => {
+                    let below = (j > 0).then(|| row(x, nx, j - 1));
+                    let above = (j + 1 < nz).then(|| row(x, nx, j + 1));
+                    pressure::add_row_area(&mut out, here, below, above, |_| 1.0);
+                }
             }
         }
-        let (regions, per_pascal) = (&self.regions, &self.per_pascal);
-        exec::map_in_place(&mut self.force, |k, f| {
-            let dp = match regions.of(k) {
-                Some(r) => regions.list[r].pressure - regions.atmosphere,
-                None => regions.extra.get(k).copied().unwrap_or(0.0),
+        for k in 0..n {
+            let dp = match self.regions.of(k) {
+                Some(r) => self.regions.list[r].pressure - self.regions.atmosphere,
+                None => self.regions.extra.get(k).copied().unwrap_or(0.0),
             };
             if dp != 0.0 {
-                f + per_pascal.get(k) * dp
-            } else {
-                f
+                let f = self.force.get(k) + self.per_pascal.get(k) * dp;
+                self.force.set(k, f);
             }
-        });
-    }
-}
-
-/// Linearises the springs `run` of a view `rows` (particles `e + oa` and `e + ob` of spring
-/// `e`) where a particle of the spring `moved`, in stretches of such springs, keeping the
-/// others' linearisation: [`Implicit::forces`]' pass over one run, with the same bits.
-fn linearise_run(
-    rows: &mut SpringRows<'_>,
-    x: &Soa,
-    run: Range<usize>,
-    (oa, ob): (usize, usize),
-    (k, l): (Real, Real),
-    limit: Limit,
-    moved: &[bool],
-) {
-    let moved = |e: usize| moved[e + oa] || moved[e + ob];
-    let mut e = run.start;
-    while e < run.end {
-        let m = moved(e);
-        let mut f = e + 1;
-        while f < run.end && moved(f) == m {
-            f += 1;
         }
-        if m {
-            rows.set(x, e..f, oa, ob, (k, l), limit);
-        } else {
-            rows.kept(e..f);
-        }
-        e = f;
     }
 }
