@@ -24,6 +24,28 @@ fn bare(n: usize) -> SimConfig {
     }
 }
 
+/// `bare(n)` lying on a level plane of friction `mu`, its particle spheres touching it, under
+/// gravity (9.8 m/s^2) tilted by `theta` (rad) towards +x: a slope of angle `theta`.
+fn on_a_slope(n: usize, theta: Real, mu: Real) -> SimConfig {
+    let mut cfg = bare(n);
+    cfg.simulation.gravity = Vec3::new(9.8 * theta.sin(), -9.8 * theta.cos(), 0.0);
+    cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, mu)];
+    cfg.cloth.position.y = cfg.cloth.particle_radius();
+    cfg
+}
+
+/// The bits of every position and of every `metrics.csv` column of `sim`.
+fn state_bits(sim: &Simulation) -> (Vec<u64>, [u64; 10]) {
+    let p = sim.positions();
+    let bits =
+        p.x.iter()
+            .chain(&p.y)
+            .chain(&p.z)
+            .map(|v| v.to_bits())
+            .collect();
+    (bits, sim.metrics().values().map(Real::to_bits))
+}
+
 fn run(sim: &mut Simulation, seconds: Real) {
     let steps = (seconds / sim.time_step()).round() as u64;
     for _ in 0..steps {
@@ -562,14 +584,7 @@ fn results_do_not_depend_on_the_thread_count() {
             cfg.grabs = vec![wetcloth::GrabSpec::lift([20, 16], 0.0, 0.05, 0.01)];
             let mut sim = Simulation::new(cfg).unwrap();
             run(&mut sim, 0.06);
-            let p = sim.positions();
-            let bits: Vec<u64> =
-                p.x.iter()
-                    .chain(&p.y)
-                    .chain(&p.z)
-                    .map(|v| v.to_bits())
-                    .collect();
-            (bits, sim.metrics().values().map(Real::to_bits))
+            state_bits(&sim)
         })
     };
     // With and without strain limiting: the step measures the volume in its main pass unless a
@@ -610,13 +625,9 @@ fn closed_forms_hold_for_every_integrator() {
         // The slope, 0.3 s.
         let theta: Real = 20f64.to_radians();
         for mu in [0.5, 0.2] {
-            let mut cfg = bare(5);
+            let mut cfg = on_a_slope(5, theta, mu);
             cfg.simulation.integrator = integrator;
             cfg.simulation.time_step = dt;
-            cfg.simulation.gravity = Vec3::new(9.8 * theta.sin(), -9.8 * theta.cos(), 0.0);
-            cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, mu)];
-            cfg.cloth.position.y = cfg.cloth.particle_radius();
-            cfg.cloth.damping = 0.0;
             let mut sim = Simulation::new(cfg).unwrap();
             let x0 = mean(&sim.positions().x);
             run(&mut sim, 0.3);
@@ -675,13 +686,10 @@ fn friction_holds_and_slides_at_large_steps() {
     ];
     for (integrator, rate, budget) in runs {
         for mu in [0.2, 0.5] {
-            let mut cfg = bare(10);
+            let mut cfg = on_a_slope(10, theta, mu);
             cfg.simulation.integrator = integrator;
             cfg.simulation.implicit_budget = budget;
             cfg.simulation.time_step = 1.0 / rate;
-            cfg.simulation.gravity = Vec3::new(g * theta.sin(), -g * theta.cos(), 0.0);
-            cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, mu)];
-            cfg.cloth.position.y = cfg.cloth.particle_radius();
             let mut sim = Simulation::new(cfg).unwrap();
             let x0 = mean(&sim.positions().x);
             run(&mut sim, 0.5);
@@ -714,14 +722,7 @@ fn implicit_results_do_not_depend_on_the_thread_count() {
             cfg.grabs = vec![wetcloth::GrabSpec::lift([20, 16], 0.0, 0.05, 0.01)];
             let mut sim = Simulation::new(cfg).unwrap();
             run(&mut sim, 0.05);
-            let p = sim.positions();
-            let bits: Vec<u64> =
-                p.x.iter()
-                    .chain(&p.y)
-                    .chain(&p.z)
-                    .map(|v| v.to_bits())
-                    .collect();
-            (bits, sim.metrics().values().map(Real::to_bits))
+            state_bits(&sim)
         })
     };
     assert_eq!(state(1), state(2));
@@ -760,14 +761,7 @@ fn implicit_results_inside_advance_do_not_depend_on_the_thread_count() {
             cfg.colliders = vec![table];
             let mut sim = Simulation::new(cfg).unwrap();
             sim.advance(60).unwrap();
-            let p = sim.positions();
-            let bits: Vec<u64> =
-                p.x.iter()
-                    .chain(&p.y)
-                    .chain(&p.z)
-                    .map(|v| v.to_bits())
-                    .collect();
-            (bits, sim.metrics().values().map(Real::to_bits))
+            state_bits(&sim)
         })
     };
     let one = state(1);
