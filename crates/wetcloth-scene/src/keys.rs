@@ -35,6 +35,10 @@ pub const CLOTH: &[&str] = &[
     "dry_friction_factor",
     "wet_adhesion",
     "paint",
+    "mesh",
+    "rotation",
+    "scale",
+    "flip_normals",
 ];
 /// Keys of a `[[cloth.paint]]` region.
 pub const PAINT: &[&str] = &["center", "radius", "half_size", "wetness"];
@@ -73,7 +77,9 @@ pub const COLLIDER: &[&str] = &[
     "keys",
 ];
 /// Keys of a `[[grab]]`.
-pub const GRAB: &[&str] = &["particle", "keys"];
+pub const GRAB: &[&str] = &["particle", "vertex", "near", "within", "keys"];
+/// Keys of a grab's `within` region.
+pub const WITHIN: &[&str] = &["center", "radius", "half_size"];
 /// Keys of one grab key (`keys = [{ time = ..., offset = [...] }]`).
 pub const GRAB_KEY: &[&str] = &["time", "offset"];
 /// Keys of one collider key (`keys = [{ time = ..., offset = [...], rotation = [...] }]`).
@@ -89,6 +95,7 @@ enum Place {
     Collider,
     Grab,
     GrabKey,
+    Within,
     Paint,
     Pocket,
     ColliderKey,
@@ -104,6 +111,7 @@ impl Place {
             Place::Collider => COLLIDER,
             Place::Grab => GRAB,
             Place::GrabKey => GRAB_KEY,
+            Place::Within => WITHIN,
             Place::Paint => PAINT,
             Place::Pocket => POCKET,
             Place::ColliderKey => COLLIDER_KEY,
@@ -119,6 +127,7 @@ impl Place {
             (Place::Top, "collider") => Some(Place::Collider),
             (Place::Top, "grab") => Some(Place::Grab),
             (Place::Grab, "keys") => Some(Place::GrabKey),
+            (Place::Grab, "within") => Some(Place::Within),
             (Place::Cloth, "paint") => Some(Place::Paint),
             (Place::Air, "pocket") => Some(Place::Pocket),
             (Place::Collider, "keys") => Some(Place::ColliderKey),
@@ -135,6 +144,7 @@ impl Place {
             Place::Collider => "collider[].",
             Place::Grab => "grab[].",
             Place::GrabKey => "grab[].keys[].",
+            Place::Within => "grab[].within.",
             Place::Paint => "cloth.paint[].",
             Place::Pocket => "air.pocket[].",
             Place::ColliderKey => "collider[].keys[].",
@@ -142,7 +152,7 @@ impl Place {
     }
 }
 
-const ALL_PLACES: [Place; 10] = [
+const ALL_PLACES: [Place; 11] = [
     Place::Top,
     Place::Simulation,
     Place::Cloth,
@@ -150,6 +160,7 @@ const ALL_PLACES: [Place; 10] = [
     Place::Collider,
     Place::Grab,
     Place::GrabKey,
+    Place::Within,
     Place::Paint,
     Place::Pocket,
     Place::ColliderKey,

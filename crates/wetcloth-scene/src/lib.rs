@@ -22,6 +22,7 @@
 //! assert!(err.to_string().starts_with("bad.toml:2:8: cloth.mass = -1 is out of range"));
 //! ```
 
+mod cloth_obj;
 mod error;
 mod keys;
 pub mod obj;

@@ -13,6 +13,7 @@ use wetcloth::{
     PaintShape, PocketSeed, PressureForce, PressureSolve, Real, Shape, SimConfig, SimulationParams,
     SolveBudget, Vec3, WetPaint,
 };
+use wetcloth::{ClothMeshSource, GrabPick};
 
 /// A fixed-length array that, unlike `[T; N]`, refuses extra elements.
 struct Arr<T, const N: usize>([T; N]);
@@ -36,7 +37,7 @@ struct RawScene {
     air: Option<RawAir>,
     collider: Option<Vec<Spanned<RawCollider>>>,
     #[serde(default)]
-    grab: Vec<RawGrab>,
+    grab: Vec<Spanned<RawGrab>>,
 }
 
 #[derive(Deserialize)]
@@ -70,14 +71,18 @@ struct RawCloth {
     dry_friction_factor: Option<Real>,
     wet_adhesion: Option<Real>,
     paint: Option<Vec<Spanned<RawPaint>>>,
+    mesh: Option<Spanned<String>>,
+    rotation: Option<Spanned<Arr<Real, 3>>>,
+    scale: Option<Spanned<Real>>,
+    flip_normals: Option<Spanned<bool>>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPaint {
-    center: Option<Arr<Real, 2>>,
+    center: Option<Spanned<Vec<Real>>>,
     radius: Option<Real>,
-    half_size: Option<Arr<Real, 2>>,
+    half_size: Option<Spanned<Vec<Real>>>,
     wetness: Real,
 }
 
@@ -136,8 +141,19 @@ struct RawColliderKey {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawGrab {
-    particle: Arr<usize, 2>,
+    particle: Option<Arr<usize, 2>>,
+    vertex: Option<usize>,
+    near: Option<Arr<Real, 3>>,
+    within: Option<RawWithin>,
     keys: Vec<RawGrabKey>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWithin {
+    center: Arr<Real, 3>,
+    radius: Option<Real>,
+    half_size: Option<Arr<Real, 3>>,
 }
 
 #[derive(Deserialize)]
@@ -308,7 +324,10 @@ fn serde_error(cx: &Ctx<'_>, doc: &Spanned<DeTable<'_>>, e: &toml::de::Error) ->
 fn missing_help(field: &str) -> &'static str {
     match field {
         "shape" => "every [[collider]] needs shape = \"plane\", \"sphere\", \"box\" or \"mesh\"",
-        "particle" => "every [[grab]] needs particle = [column, row] (0-based grid index)",
+        "particle" => {
+            "every [[grab]] needs one of particle = [column, row] (the grid), vertex = K, near = \
+             [x, y, z] or within = { center = [x, y, z], radius = R }"
+        }
         "keys" => "every [[grab]] needs keys = [{ time = ..., offset = [x, y, z] }, ...]",
         "time" => "every grab key needs time = ... (s)",
         "offset" => "every grab key needs offset = [x, y, z] (m)",
@@ -398,9 +417,12 @@ fn convert(
     let mut cloth = ClothParams::default();
     if let Some(c) = raw.cloth {
         let d = &mut cloth;
-        set(&mut d.size, c.size.map(|a| a.0));
-        set(&mut d.resolution, c.resolution.map(|a| a.0));
-        set(&mut d.position, c.position.map(vec3));
+        set(&mut d.size, c.size.as_ref().map(|a| a.0));
+        set(&mut d.resolution, c.resolution.as_ref().map(|a| a.0));
+        set(
+            &mut d.position,
+            c.position.as_ref().map(|a| Vec3::from(a.0)),
+        );
         set(&mut d.mass, c.mass);
         set(&mut d.structural_stiffness, c.structural_stiffness);
         set(&mut d.shear_stiffness, c.shear_stiffness);
@@ -414,12 +436,80 @@ fn convert(
         set(&mut d.water_mass, c.water_mass);
         set(&mut d.dry_friction_factor, c.dry_friction_factor);
         set(&mut d.wet_adhesion, c.wet_adhesion);
+        if let Some(file) = &c.mesh {
+            for (k, given) in [
+                ("size", c.size.is_some()),
+                ("resolution", c.resolution.is_some()),
+            ] {
+                if given {
+                    return Err(SceneError::Invalid {
+                        at: cx.at(file.span()),
+                        key: format!("cloth.{k}"),
+                        value: cx.raw(&file.span()),
+                        message: format!(
+                            "`{k}` describes the built-in grid and cannot be given with `mesh`: \
+                             a mesh cloth's size and particles are its file's"
+                        ),
+                    });
+                }
+            }
+            if c.position.is_none() {
+                d.position = Vec3::ZERO;
+            }
+            d.mesh = Some(cloth_mesh(cx, file, &c)?);
+        } else {
+            for (k, given) in [
+                ("rotation", c.rotation.as_ref().map(|s| s.span())),
+                ("scale", c.scale.as_ref().map(|s| s.span())),
+                ("flip_normals", c.flip_normals.as_ref().map(|s| s.span())),
+            ] {
+                if let Some(span) = given {
+                    return Err(SceneError::Invalid {
+                        at: cx.at(span.clone()),
+                        key: format!("cloth.{k}"),
+                        value: cx.raw(&span),
+                        message: format!(
+                            "`{k}` places a mesh cloth: it needs `mesh = \"file.obj\"` in [cloth]"
+                        ),
+                    });
+                }
+            }
+        }
+        let on_mesh = d.mesh.is_some();
         for (i, p) in c.paint.unwrap_or_default().into_iter().enumerate() {
             let span = p.span();
             let p = p.into_inner();
-            let shape = match (p.radius, p.half_size) {
+            let dims = if on_mesh { 3 } else { 2 };
+            let bad_len = |v: &Spanned<Vec<Real>>, what: &str| SceneError::Invalid {
+                at: cx.at(v.span()),
+                key: format!("cloth.paint[{i}].{what}"),
+                value: cx.raw(&v.span()),
+                message: if on_mesh {
+                    format!(
+                        "on a mesh cloth `{what}` has 3 components [x, y, z] (m, scene coordinates at t = 0)"
+                    )
+                } else {
+                    format!(
+                        "on the grid `{what}` has 2 components [x, z] (m from the cloth's centre)"
+                    )
+                },
+            };
+            for v in [&p.center, &p.half_size].into_iter().flatten() {
+                if v.get_ref().len() != dims {
+                    let what =
+                        if std::ptr::eq(v, p.center.as_ref().unwrap_or(v)) && p.center.is_some() {
+                            "center"
+                        } else {
+                            "half_size"
+                        };
+                    return Err(bad_len(v, what));
+                }
+            }
+            let center = p.center.as_ref().map(|c| c.get_ref().clone());
+            let shape = match (p.radius, p.half_size.as_ref().map(|h| h.get_ref().clone())) {
                 (Some(r), None) => PaintShape::Disc(r),
-                (None, Some(h)) => PaintShape::Box(h.0),
+                (None, Some(h)) if on_mesh => PaintShape::Cuboid([h[0], h[1], h[2]]),
+                (None, Some(h)) => PaintShape::Box([h[0], h[1]]),
                 (r, _) => {
                     return Err(SceneError::Invalid {
                         at: cx.at(span.clone()),
@@ -436,10 +526,16 @@ fn convert(
                     });
                 }
             };
+            let (center, point) = match center {
+                Some(c) if on_mesh => ([c[0], c[2]], Some(Vec3::new(c[0], c[1], c[2]))),
+                Some(c) => ([c[0], c[1]], None),
+                None => ([0.0, 0.0], on_mesh.then_some(Vec3::ZERO)),
+            };
             d.paint.push(WetPaint {
-                center: p.center.map_or([0.0, 0.0], |c| c.0),
+                center,
                 shape,
                 wetness: p.wetness,
+                point,
             });
         }
     }
@@ -507,21 +603,76 @@ fn convert(
             .collect::<Result<Vec<_>, _>>()?,
     };
 
+    let on_mesh = cloth.mesh.is_some();
     let grabs = raw
         .grab
         .into_iter()
-        .map(|g| GrabSpec {
-            particle: g.particle.0,
-            keys: g
-                .keys
-                .into_iter()
-                .map(|k| GrabKey {
-                    time: k.time,
-                    offset: vec3(k.offset),
-                })
-                .collect(),
+        .enumerate()
+        .map(|(i, g)| {
+            let span = g.span();
+            let g = g.into_inner();
+            let fail = |message: String| SceneError::Invalid {
+                at: cx.at(span.clone()),
+                key: format!("grab[{i}]"),
+                value: cx.raw(&span),
+                message,
+            };
+            let given = usize::from(g.particle.is_some())
+                + usize::from(g.vertex.is_some())
+                + usize::from(g.near.is_some())
+                + usize::from(g.within.is_some());
+            if given != 1 {
+                return Err(fail(format!(
+                    "a grab takes exactly one of `particle = [i, j]` (the grid), `vertex = K`, \
+                     `near = [x, y, z]` and `within = {{ center = [x, y, z], radius = R }}` (or \
+                     `half_size = [hx, hy, hz]`); found {given}"
+                )));
+            }
+            let particle = g.particle.as_ref().map_or([0, 0], |p| p.0);
+            let pick = match (g.particle, g.vertex, g.near, g.within) {
+                (Some(_), ..) if on_mesh => {
+                    return Err(fail(
+                        "`particle = [i, j]` names a grid particle; on a mesh cloth use \
+                         `vertex = K` (the file's vertex, from 0), `near` or `within`"
+                            .into(),
+                    ));
+                }
+                (Some(_), ..) => None,
+                (_, Some(k), ..) => Some(GrabPick::Vertex(k)),
+                (_, _, Some(p), _) => Some(GrabPick::Near(vec3(p))),
+                (_, _, _, Some(w)) => Some(match (w.radius, w.half_size) {
+                    (Some(radius), None) => GrabPick::Ball {
+                        center: vec3(w.center),
+                        radius,
+                    },
+                    (None, Some(h)) => GrabPick::Box {
+                        center: vec3(w.center),
+                        half_size: vec3(h),
+                    },
+                    _ => {
+                        return Err(fail(
+                            "`within` takes exactly one of `radius` (a ball, m) and \
+                             `half_size` (a box, [hx, hy, hz] in m)"
+                                .into(),
+                        ));
+                    }
+                }),
+                _ => None,
+            };
+            Ok(GrabSpec {
+                particle,
+                pick,
+                keys: g
+                    .keys
+                    .into_iter()
+                    .map(|k| GrabKey {
+                        time: k.time,
+                        offset: vec3(k.offset),
+                    })
+                    .collect(),
+            })
         })
-        .collect();
+        .collect::<Result<Vec<_>, _>>()?;
 
     Ok((
         name,
@@ -768,6 +919,78 @@ fn collider(
     })
 }
 
+/// The cloth mesh named by `[cloth] mesh = file`, read, placed and checked: a face the mesh
+/// cannot be a cloth with is named by its line.
+fn cloth_mesh(
+    cx: &Ctx<'_>,
+    file: &Spanned<String>,
+    c: &RawCloth,
+) -> Result<ClothMeshSource, SceneError> {
+    let path = mesh_path(cx, file.get_ref());
+    let fail = |message: String| SceneError::Invalid {
+        at: cx.at(file.span()),
+        key: "cloth.mesh".into(),
+        value: cx.raw(&file.span()),
+        message,
+    };
+    let text = read_text(
+        cx,
+        "cloth.mesh",
+        file,
+        crate::cloth_obj::MAX_CLOTH_BYTES,
+        "a cloth mesh",
+    )?;
+    let obj = crate::cloth_obj::parse_cloth(&text).map_err(|e| {
+        if e.line == 0 {
+            fail(format!("{}: {}", path.display(), e.message))
+        } else {
+            fail(format!("{}:{}: {}", path.display(), e.line, e.message))
+        }
+    })?;
+    drop(text);
+    let scale = c.scale.as_ref().map_or(1.0, |s| *s.get_ref());
+    if !(scale > 0.0 && scale <= 1e4) {
+        let span = c.scale.as_ref().map_or(file.span(), |s| s.span());
+        return Err(SceneError::Invalid {
+            at: cx.at(span.clone()),
+            key: "cloth.scale".into(),
+            value: cx.raw(&span),
+            message: "out of range: allowed (0, 1e4] (the file's units to metres)".into(),
+        });
+    }
+    let named = std::path::absolute(&path).unwrap_or(path.clone());
+    let src = ClothMeshSource {
+        file: named.display().to_string(),
+        vertices: std::sync::Arc::new(obj.vertices),
+        faces: std::sync::Arc::new(obj.faces),
+        uvs: std::sync::Arc::new(obj.uvs),
+        face_uvs: std::sync::Arc::new(obj.face_uvs),
+        rotation: c
+            .rotation
+            .as_ref()
+            .map_or(Vec3::ZERO, |r| Vec3::from(r.get_ref().0)),
+        scale,
+        flip_normals: c.flip_normals.as_ref().is_some_and(|f| *f.get_ref()),
+    };
+    let position = c.position.as_ref().map_or(Vec3::ZERO, |p| Vec3::from(p.0));
+    if !(position.is_finite() && src.rotation.is_finite()) {
+        // Left to the configuration's range checks, which name the key.
+        return Ok(src);
+    }
+    let (triangles, from) = src.triangles();
+    if let Err(e) = wetcloth::ClothMesh::new(src.placed(position), triangles) {
+        let at = e
+            .triangle()
+            .and_then(|t| from.get(t))
+            .and_then(|&f| obj.face_lines.get(f as usize));
+        return Err(fail(match at {
+            Some(line) => format!("{}:{line}: {e}", path.display()),
+            None => format!("{}: {e}", path.display()),
+        }));
+    }
+    Ok(src)
+}
+
 /// Where a mesh file named `file` in the scene is: relative to the scene file's folder.
 fn mesh_path(cx: &Ctx<'_>, file: &str) -> std::path::PathBuf {
     let base = std::path::Path::new(cx.file)
@@ -782,6 +1005,29 @@ fn load_mesh(
     key: &str,
     file: &Spanned<String>,
 ) -> Result<crate::obj::ObjMesh, SceneError> {
+    let path = mesh_path(cx, file.get_ref());
+    let text = read_text(cx, key, file, crate::obj::MAX_MESH_BYTES, "a mesh")?;
+    crate::obj::parse(&text).map_err(|e| SceneError::Invalid {
+        at: cx.at(file.span()),
+        key: key.to_string(),
+        value: cx.raw(&file.span()),
+        message: if e.line == 0 {
+            format!("{}: {}", path.display(), e.message)
+        } else {
+            format!("{}:{}: {}", path.display(), e.line, e.message)
+        },
+    })
+}
+
+/// The text of the file named by the scene key `key` (its value `file`, relative to the scene
+/// file), at most `max_bytes` long; `what` names what the file is for in messages.
+fn read_text(
+    cx: &Ctx<'_>,
+    key: &str,
+    file: &Spanned<String>,
+    max_bytes: u64,
+    what: &str,
+) -> Result<String, SceneError> {
     use std::io::Read;
     let path = mesh_path(cx, file.get_ref());
     let fail = |message: String| SceneError::Invalid {
@@ -794,13 +1040,18 @@ fn load_mesh(
     // waits for a writer, forever.
     match std::fs::metadata(&path) {
         Ok(m) if !m.is_file() => {
-            let what = if m.is_dir() {
+            let kind = if m.is_dir() {
                 "a folder"
             } else {
                 "not a regular file (a FIFO, a socket or a device)"
             };
+            let reader = if what == "a mesh" {
+                "a mesh collider"
+            } else {
+                "a mesh cloth"
+            };
             return Err(fail(format!(
-                "the mesh file {} is {what}: a mesh collider reads an OBJ file",
+                "the mesh file {} is {kind}: {reader} reads an OBJ file",
                 path.display()
             )));
         }
@@ -808,30 +1059,23 @@ fn load_mesh(
     }
     let mut bytes = Vec::new();
     std::fs::File::open(&path)
-        .and_then(|f| {
-            f.take(crate::obj::MAX_MESH_BYTES + 1)
-                .read_to_end(&mut bytes)
-        })
+        .and_then(|f| f.take(max_bytes + 1).read_to_end(&mut bytes))
         .map_err(|e| {
             fail(format!(
                 "cannot read the mesh file {}: {e} (the path is relative to the scene file)",
                 path.display()
             ))
         })?;
-    if bytes.len() as u64 > crate::obj::MAX_MESH_BYTES {
+    if bytes.len() as u64 > max_bytes {
         return Err(fail(format!(
-            "the mesh file {} is larger than the {} MiB a mesh may have",
+            "the mesh file {} is larger than the {} MiB {what} may have",
             path.display(),
-            crate::obj::MAX_MESH_BYTES >> 20
+            max_bytes >> 20
         )));
     }
-    let text = String::from_utf8_lossy(&bytes);
-    crate::obj::parse(&text).map_err(|e| {
-        if e.line == 0 {
-            fail(format!("{}: {}", path.display(), e.message))
-        } else {
-            fail(format!("{}:{}: {}", path.display(), e.line, e.message))
-        }
+    Ok(match String::from_utf8(bytes) {
+        Ok(s) => s,
+        Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
     })
 }
 

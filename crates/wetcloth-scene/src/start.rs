@@ -64,6 +64,9 @@ pub struct StartProblem {
 /// whether the file writes `key` of collider `i` (to blame a written key over a default).
 pub fn check(config: &SimConfig, given: impl Fn(usize, &str) -> bool) -> Result<(), StartProblem> {
     let cloth = &config.cloth;
+    if let Some(mesh) = &cloth.mesh {
+        return check_mesh(config, &mesh.placed(cloth.position));
+    }
     let grid = Grid::new(cloth);
     let radius = cloth.particle_radius();
     let dt = config.simulation.time_step;
@@ -173,6 +176,71 @@ pub fn check(config: &SimConfig, given: impl Fn(usize, &str) -> bool) -> Result<
                         } else {
                             "infinitely far".into()
                         },
+                        length(MAX_BUBBLE_HEIGHT)
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// [`check`] for a mesh cloth: every particle against every collider, and the whole cloth
+/// within reach of its sticking plane.
+fn check_mesh(config: &SimConfig, rest: &[Vec3]) -> Result<(), StartProblem> {
+    let radius = config.cloth.particle_radius();
+    let dt = config.simulation.time_step;
+    let sticking = config.colliders.iter().position(|c| c.as_plane().is_some());
+    for (index, collider) in config.colliders.iter().enumerate() {
+        let collider = &collider.at(0.0);
+        let Some((d, k)) = rest
+            .iter()
+            .enumerate()
+            .map(|(k, &p)| (collider.distance(p).0, k))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+        else {
+            continue;
+        };
+        let p = rest[k];
+        let depth = radius - d;
+        let what = collider.shape_name();
+        if !d.is_finite() || depth > TOLERANCE * (1.0 + p.abs().max_element()) {
+            let far = if d.is_finite() {
+                format!("{} inside its surface", length(depth))
+            } else {
+                "an unmeasurable distance inside it".to_string()
+            };
+            return Err(StartProblem {
+                collider: index,
+                key: match collider.shape {
+                    Shape::Plane(_) => "point",
+                    Shape::Mesh(_) => "position",
+                    _ => "center",
+                },
+                message: format!(
+                    "the cloth starts inside this {what}: vertex {k} (counting from 0) at {} is \
+                     {far} (counting the particles' collision radius of {}); a cloth must start \
+                     clear of every collider, or contact throws it out at about {} in the first \
+                     step; move the {what} or cloth.position",
+                    point(p),
+                    length(radius),
+                    speed(depth / dt),
+                ),
+            });
+        }
+        if sticking == Some(index) {
+            let highest = rest
+                .iter()
+                .map(|&p| collider.distance(p).0)
+                .fold(Real::NEG_INFINITY, Real::max);
+            if highest.is_nan() || highest > MAX_BUBBLE_HEIGHT {
+                return Err(StartProblem {
+                    collider: index,
+                    key: "point",
+                    message: format!(
+                        "the cloth starts {} above this plane, the first of the scene: the air \
+                         model needs the cloth within {} of it; move the plane or cloth.position",
+                        length(highest),
                         length(MAX_BUBBLE_HEIGHT)
                     ),
                 });

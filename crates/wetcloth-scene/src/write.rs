@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 use wetcloth::collide::{Cuboid, Plane, Sphere};
-use wetcloth::{PaintShape, Real, Shape, SimConfig, Vec3};
+use wetcloth::{GrabPick, PaintShape, Real, Shape, SimConfig, Vec3};
 
 /// A float in TOML: Rust's `{:?}` is the shortest text that parses back to the same `f64` and
 /// always has a `.` or an exponent, so TOML reads it as a float.
@@ -57,12 +57,22 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     let _ = writeln!(o, "gravity = {}  # m/s^2", v3(s.gravity));
     let _ = writeln!(o);
     let _ = writeln!(o, "[cloth]");
-    let _ = writeln!(o, "size = [{}, {}]  # m", f(c.size[0]), f(c.size[1]));
-    let _ = writeln!(
-        o,
-        "resolution = [{}, {}]  # particles",
-        c.resolution[0], c.resolution[1]
-    );
+    match &c.mesh {
+        None => {
+            let _ = writeln!(o, "size = [{}, {}]  # m", f(c.size[0]), f(c.size[1]));
+            let _ = writeln!(
+                o,
+                "resolution = [{}, {}]  # particles",
+                c.resolution[0], c.resolution[1]
+            );
+        }
+        Some(m) => {
+            let _ = writeln!(o, "mesh = {}", quote(&m.file));
+            let _ = writeln!(o, "rotation = {}  # degrees", v3(m.rotation));
+            let _ = writeln!(o, "scale = {}  # file units to m", f(m.scale));
+            let _ = writeln!(o, "flip_normals = {}", m.flip_normals);
+        }
+    }
     let _ = writeln!(o, "position = {}  # m", v3(c.position));
     let _ = writeln!(o, "mass = {}  # kg", f(c.mass));
     let _ = writeln!(
@@ -84,18 +94,34 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     for p in &c.paint {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[cloth.paint]]");
-        let _ = writeln!(
-            o,
-            "center = [{}, {}]  # m, rest (x, z)",
-            f(p.center[0]),
-            f(p.center[1])
-        );
+        match p.point {
+            Some(c) => {
+                let _ = writeln!(o, "center = {}  # m, scene at t = 0", v3(c));
+            }
+            None => {
+                let _ = writeln!(
+                    o,
+                    "center = [{}, {}]  # m, rest (x, z)",
+                    f(p.center[0]),
+                    f(p.center[1])
+                );
+            }
+        }
         match p.shape {
             PaintShape::Disc(r) => {
                 let _ = writeln!(o, "radius = {}  # m", f(r));
             }
             PaintShape::Box(h) => {
                 let _ = writeln!(o, "half_size = [{}, {}]  # m", f(h[0]), f(h[1]));
+            }
+            PaintShape::Cuboid(h) => {
+                let _ = writeln!(
+                    o,
+                    "half_size = [{}, {}, {}]  # m",
+                    f(h[0]),
+                    f(h[1]),
+                    f(h[2])
+                );
             }
         }
         let _ = writeln!(o, "wetness = {}", f(p.wetness));
@@ -183,11 +209,37 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     for g in &config.grabs {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[grab]]");
-        let _ = writeln!(
-            o,
-            "particle = [{}, {}]  # column, row",
-            g.particle[0], g.particle[1]
-        );
+        match &g.pick {
+            None => {
+                let _ = writeln!(
+                    o,
+                    "particle = [{}, {}]  # column, row",
+                    g.particle[0], g.particle[1]
+                );
+            }
+            Some(GrabPick::Vertex(k)) => {
+                let _ = writeln!(o, "vertex = {k}");
+            }
+            Some(GrabPick::Near(p)) => {
+                let _ = writeln!(o, "near = {}  # m", v3(*p));
+            }
+            Some(GrabPick::Ball { center, radius }) => {
+                let _ = writeln!(
+                    o,
+                    "within = {{ center = {}, radius = {} }}  # m",
+                    v3(*center),
+                    f(*radius)
+                );
+            }
+            Some(GrabPick::Box { center, half_size }) => {
+                let _ = writeln!(
+                    o,
+                    "within = {{ center = {}, half_size = {} }}  # m",
+                    v3(*center),
+                    v3(*half_size)
+                );
+            }
+        }
         let _ = writeln!(o, "keys = [  # time in s, offset in m");
         for k in &g.keys {
             let _ = writeln!(

@@ -351,11 +351,13 @@ fn full_config() -> SimConfig {
         WetPaint {
             center: [0.05, -0.025],
             shape: PaintShape::Disc(0.04),
+            point: None,
             wetness: 0.0,
         },
         WetPaint {
             center: [0.0, 0.0],
             shape: PaintShape::Box([0.1, 0.02]),
+            point: None,
             wetness: 1.0,
         },
     ];
@@ -386,6 +388,7 @@ fn full_config() -> SimConfig {
         GrabSpec::lift([3, 4], 0.25, 1.25, 0.05),
         GrabSpec {
             particle: [16, 8],
+            pick: None,
             keys: vec![GrabKey {
                 time: 0.0,
                 offset: Vec3::new(0.1, 0.2, -0.3),

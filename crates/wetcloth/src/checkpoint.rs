@@ -33,7 +33,7 @@ use crate::checks::EnergyAudit;
 use crate::collide::self_collision::SelfCollision;
 use crate::control::Control;
 use crate::measure::Measures;
-use crate::model::Grid;
+use crate::model::Layout;
 use crate::params::SimConfig;
 use crate::state::{Motion, State};
 
@@ -89,12 +89,12 @@ impl Checkpoint {
     }
 
     /// Checks that it fits a simulation just built from the configuration `config` it is to
-    /// continue (its cloth `grid`, its fresh `state` and `air`): the same number of particles,
+    /// continue (its cloth's `layout`, its fresh `state` and `air`): the same number of particles,
     /// air model, integrator and self-collision, every index in range.
     pub(crate) fn check_fits(
         &self,
         config: &SimConfig,
-        grid: &Grid,
+        layout: Layout<'_>,
         state: &State,
         air: &AirModel,
     ) -> Result<(), RestoreError> {
@@ -104,7 +104,7 @@ impl Checkpoint {
                 expected: CHECKPOINT_VERSION,
             });
         }
-        let n = grid.len();
+        let n = state.x.len();
         let bad = |what: String| Err(RestoreError::Mismatch(what));
         let soa_fits = |s: &crate::math::Soa, len: usize| {
             s.x.len() == len && s.y.len() == len && s.z.len() == len
@@ -151,7 +151,10 @@ impl Checkpoint {
             return bad("another air model".into());
         }
         if let AirModel::Pockets(p) = &self.air {
-            let cells = (grid.nx - 1) * (grid.nz - 1);
+            let cells = match layout {
+                Layout::Grid(grid) => (grid.nx - 1) * (grid.nz - 1),
+                Layout::Mesh(mesh, _) => mesh.triangles.len(),
+            };
             let count = p.pockets.len() as u32;
             let in_range = |v: &[u32]| {
                 v.iter()
@@ -177,7 +180,7 @@ impl Checkpoint {
         }
         let (m, want) = (
             &self.measures,
-            Measures::for_grid(grid, AirModel::keeps_cells(&config.air)),
+            Measures::for_layout(layout, AirModel::keeps_cells(&config.air)),
         );
         if m.rows.len() != want.rows.len()
             || m.cells.len() != want.cells.len()

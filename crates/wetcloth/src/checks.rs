@@ -123,8 +123,18 @@ impl EnergyAudit {
     /// ([`EnergyAudit::allowance`]). No collider moves, so nothing else carries the cloth.
     pub fn reach(&self, model: &Model, hand_work: Real, grab_reach: Real, time: Real) -> Real {
         let t = (time - self.start_time).max(0.0);
-        let g = &model.grid;
-        let size = (g.dx * (g.nx - 1) as Real).hypot(g.dz * (g.nz - 1) as Real);
+        let size = match model.layout() {
+            crate::model::Layout::Grid(g) => {
+                (g.dx * (g.nx - 1) as Real).hypot(g.dz * (g.nz - 1) as Real)
+            }
+            crate::model::Layout::Mesh(m, _) => {
+                let (lo, hi) = m.rest.iter().fold(
+                    (Vec3::splat(Real::INFINITY), Vec3::splat(Real::NEG_INFINITY)),
+                    |(lo, hi), &p| (lo.min(p), hi.max(p)),
+                );
+                (hi - lo).length()
+            }
+        };
         let lightest = model.masses.as_ref().map_or(model.particle_mass, |m| {
             m.iter().copied().fold(Real::INFINITY, Real::min)
         });
@@ -215,7 +225,10 @@ pub fn mechanical_energy(model: &Model, state: &State, dt: Real) -> Real {
         .map(|k| -model.mass(k) * model.gravity.dot(state.x.get(k)))
         .sum();
     state.kinetic_energy_with(model.masses.as_deref(), model.particle_mass, dt)
-        + spring::potential_energy(&model.springs, &state.x)
+        + match &model.mesh_springs {
+            None => spring::potential_energy(&model.springs, &state.x),
+            Some(s) => s.energy(&state.x),
+        }
         + gravity
 }
 
@@ -235,8 +248,8 @@ mod tests {
         cfg.cloth.resolution = [8, 8];
         cfg.grabs.clear();
         let model = Model::new(&cfg);
-        let state = State::at_rest(model.grid.rest_positions(cfg.cloth.position));
-        let control = Control::new(model.grid.len(), false);
+        let state = State::at_rest(model.grid().rest_positions(cfg.cloth.position));
+        let control = Control::new(model.grid().len(), false);
         (model, state, control, cfg.simulation.time_step)
     }
 

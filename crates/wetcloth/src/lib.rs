@@ -85,14 +85,14 @@ pub mod state;
 
 pub use checkpoint::{CHECKPOINT_VERSION, Checkpoint, RestoreError};
 pub use collide::{Collider, Shape, Surface, SurfaceMesh};
-pub use control::{Control, Grab, GrabKey, GrabMotion, GrabSpec};
+pub use control::{Control, Grab, GrabKey, GrabMotion, GrabPick, GrabSpec};
 pub use error::{ConfigError, StepError};
 pub use math::{Real, Soa, Vec3};
 pub use metrics::FrameMetrics;
-pub use model::{Grid, Model};
+pub use model::{ClothMesh, ClothMeshError, Grid, Layout, Model};
 pub use params::{
-    AirModelKind, AirParams, ClothParams, Integrator, PaintShape, PocketSeed, PressureForce,
-    PressureSolve, SimConfig, SimulationParams, SolveBudget, WetPaint,
+    AirModelKind, AirParams, ClothMeshSource, ClothParams, Integrator, PaintShape, PocketSeed,
+    PressureForce, PressureSolve, SimConfig, SimulationParams, SolveBudget, WetPaint,
 };
 pub use sim::Simulation;
 pub use state::{Motion, State};

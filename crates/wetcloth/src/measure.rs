@@ -7,9 +7,10 @@
 //! order, and rows are summed in row order, so the result does not depend on threads.
 
 use crate::air::gap::cell_volume6;
+use crate::air::gap::prism_volume;
 use crate::collide::StickingPlane;
 use crate::math::{Real, RowRef, Soa, Vec3, row};
-use crate::model::Grid;
+use crate::model::{Grid, Layout};
 use rayon::prelude::*;
 
 /// Lanes of the reductions: independent partial sums and maxima the compiler keeps in vector
@@ -145,6 +146,42 @@ pub(crate) fn row_cells(
     cells(grid, row(x, grid.nx, j), next, plane, offset, cell_volumes)
 }
 
+/// The measures of a mesh cloth at `x`: eq. 3.10 over its triangles (in triangle order), the
+/// largest `(length / rest length)^2` of a spring along an edge, and the finiteness probe;
+/// each triangle's own gap volume into `cell_volumes` when given.
+pub(crate) fn mesh_cells(
+    layout: Layout<'_>,
+    x: &Soa,
+    plane: Option<StickingPlane>,
+    offset: Real,
+    cell_volumes: Option<&mut [Real]>,
+) -> CellMeasures {
+    let Layout::Mesh(mesh, springs) = layout else {
+        return CellMeasures::default();
+    };
+    let (origin, up) = plane.map_or((Vec3::ZERO, Vec3::Y), |p| (p.point, p.up));
+    let h = |k: usize| (x.get(k) - origin).dot(up) - offset;
+    let mut volume = 0.0;
+    let mut out = cell_volumes;
+    for (t, &[a, b, c]) in mesh.triangles.iter().enumerate() {
+        let (a, b, c) = (a as usize, b as usize, c as usize);
+        let v = prism_volume(x.get(a), x.get(b), x.get(c), h(a), h(b), h(c), up);
+        if let Some(o) = out.as_deref_mut() {
+            o[t] = v;
+        }
+        volume += v;
+    }
+    let mut probe: Real = 0.0;
+    for k in 0..x.len() {
+        probe += (x.x[k] + x.y[k] + x.z[k]) * 0.0;
+    }
+    CellMeasures {
+        volume: if plane.is_some() { volume } else { 0.0 },
+        stretch2: springs.max_stretch2(x),
+        finite_probe: probe + volume * 0.0,
+    }
+}
+
 /// The measures of every row of cells of a state: row `j` holds the cells between rows `j`
 /// and `j + 1`; and, when kept, each cell's own gap volume.
 #[derive(Clone, Debug, Default)]
@@ -171,6 +208,46 @@ pub(crate) struct Totals {
 }
 
 impl Measures {
+    /// Room for the measures of `layout`: the grid's rows, or a mesh's one (all its triangles,
+    /// each a cell), keeping each cell's volume if `keep_cells`.
+    pub fn for_layout(layout: Layout<'_>, keep_cells: bool) -> Self {
+        match layout {
+            Layout::Grid(grid) => Self::for_grid(grid, keep_cells),
+            Layout::Mesh(mesh, _) => Self {
+                rows: vec![CellMeasures::default(); 1],
+                cells: vec![0.0; mesh.triangles.len()],
+                keep_cells,
+            },
+        }
+    }
+
+    /// Re-measures everything of a mesh cloth (one row) from `x`.
+    pub fn remeasure_mesh(
+        &mut self,
+        layout: Layout<'_>,
+        x: &Soa,
+        plane: Option<StickingPlane>,
+        offset: Real,
+    ) {
+        let cells = self.keep_cells.then_some(&mut self.cells[..]);
+        self.rows[0] = mesh_cells(layout, x, plane, offset, cells);
+    }
+
+    /// Re-measures every row of `layout` from `x` ([`Measures::remeasure_all`] on the grid).
+    pub fn remeasure_layout(
+        &mut self,
+        layout: Layout<'_>,
+        x: &Soa,
+        plane: Option<StickingPlane>,
+        offset: Real,
+        parallel: Option<usize>,
+    ) {
+        match layout {
+            Layout::Grid(grid) => self.remeasure_all(grid, x, plane, offset, parallel),
+            Layout::Mesh(..) => self.remeasure_mesh(layout, x, plane, offset),
+        }
+    }
+
     /// Room for the rows of `grid`, keeping each cell's volume if `keep_cells`.
     pub fn for_grid(grid: &Grid, keep_cells: bool) -> Self {
         Self {

@@ -1,7 +1,7 @@
 //! Per-frame measurements: the columns of `metrics.csv`.
 
 use crate::math::{Real, Soa};
-use crate::model::Grid;
+use crate::model::Layout;
 
 /// Column names of [`FrameMetrics::values`], in order, as in `metrics.csv` (after `frame`).
 pub const COLUMNS: [&str; 10] = [
@@ -45,11 +45,29 @@ pub struct FrameMetrics {
 }
 
 impl FrameMetrics {
-    /// The cloth's own columns of positions `x` on `grid` with contact flags `contact`: the
+    /// The cloth's own columns of positions `x` on `layout` (a mesh: every spring) with contact flags `contact`: the
     /// largest height (m), the largest relative stretch of a structural spring, and the
     /// fraction of particles touching a collider, as `(max_height, max_stretch,
     /// contact_fraction)`. [`crate::Simulation::metrics`] adds the rest.
-    pub fn cloth(grid: &Grid, x: &Soa, contact: &[bool]) -> (Real, Real, Real) {
+    pub fn cloth(layout: Layout<'_>, x: &Soa, contact: &[bool]) -> (Real, Real, Real) {
+        let grid = match layout {
+            Layout::Grid(grid) => grid,
+            Layout::Mesh(_, springs) => {
+                let n = x.len();
+                let mut max_height = Real::NEG_INFINITY;
+                let mut contacts = 0usize;
+                for k in 0..n {
+                    max_height = max_height.max(x.y[k]);
+                    contacts += usize::from(contact[k]);
+                }
+                let mut max_stretch = Real::NEG_INFINITY;
+                for (s, &[a, b]) in springs.ends.iter().enumerate() {
+                    let l = (x.get(b as usize) - x.get(a as usize)).length();
+                    max_stretch = max_stretch.max(l / springs.rest[s] - 1.0);
+                }
+                return (max_height, max_stretch, contacts as Real / n as Real);
+            }
+        };
         let n = grid.len();
         let mut max_height = Real::NEG_INFINITY;
         let mut max_stretch = Real::NEG_INFINITY;

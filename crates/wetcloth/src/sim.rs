@@ -6,7 +6,7 @@ use crate::checks::{self, EnergyAudit};
 use crate::collide::contact;
 use crate::collide::self_collision::SelfCollision;
 use crate::constraints::strain_limit;
-use crate::control::{Control, Grab, GrabMotion};
+use crate::control::{Control, Grab, GrabMotion, GrabPick};
 use crate::error::{ConfigError, StepError};
 use crate::exec;
 use crate::integrate::{Air, Fused, IntegratorState};
@@ -54,6 +54,9 @@ pub struct Simulation {
     /// Scratch: the particles the water film pulls during the step being taken, with the
     /// pull (N) and their positions at its start (m), to count the film's work.
     film: Vec<(u32, Vec3, Vec3)>,
+    /// The scene grab (`[[grab]]` index) each of the control's grabs belongs to: a grab
+    /// holding several particles (`within`) is one control grab per particle.
+    grab_of: Vec<u32>,
 }
 
 impl Simulation {
@@ -61,20 +64,40 @@ impl Simulation {
     pub fn new(config: SimConfig) -> Result<Self, ConfigError> {
         config.validate()?;
         let model = Model::new(&config);
-        let n = model.grid.len();
+        let n = model.len();
+        let rest = model.rest_positions(config.cloth.position);
         let mut control = Control::new(n, config.air.enabled);
-        control.grabs = config
-            .grabs
-            .iter()
-            .map(|g| {
-                Grab::new(
-                    model.grid.index(g.particle[0], g.particle[1]),
-                    GrabMotion::Path(g.clone()),
-                )
-            })
-            .collect();
+        let mut grab_of = Vec::with_capacity(config.grabs.len());
+        for (i, g) in config.grabs.iter().enumerate() {
+            let held = match (&g.pick, &model.grid) {
+                (Some(pick), _) => pick.particles(&rest),
+                (None, Some(grid)) => vec![grid.index(g.particle[0], g.particle[1])],
+                (None, None) => Vec::new(),
+            };
+            if held.is_empty() {
+                return Err(ConfigError::Invalid {
+                    key: format!("grab[{i}]"),
+                    message: match &g.pick {
+                        Some(GrabPick::Vertex(k)) => {
+                            format!("vertex {k} is out of range: the cloth has {n} particles")
+                        }
+                        Some(_) => "no particle of the cloth is inside at t = 0".into(),
+                        None => "`particle = [i, j]` names a grid particle: on a mesh cloth \
+                                 use `vertex`, `near` or `within`"
+                            .into(),
+                    },
+                });
+            }
+            for k in held {
+                control
+                    .grabs
+                    .push(Grab::new(k, GrabMotion::Path(g.clone())));
+                grab_of.push(i as u32);
+            }
+        }
         let mut sim = Self {
-            state: State::at_rest(model.grid.rest_positions(config.cloth.position)),
+            grab_of,
+            state: State::at_rest(rest),
             control,
             air: AirModel::Thesis(crate::air::Bubble::new(config.air.trapped_air)),
             integrator: IntegratorState::new(
@@ -86,7 +109,7 @@ impl Simulation {
                 .cloth
                 .self_collision
                 .then(|| SelfCollision::new(n, 2.0 * model.radius)),
-            measures: Measures::for_grid(&model.grid, AirModel::keeps_cells(&config.air)),
+            measures: Measures::for_layout(model.layout(), AirModel::keeps_cells(&config.air)),
             strain: strain_limit::Scratch::default(),
             audit: EnergyAudit::default(),
             halvings: 0,
@@ -142,9 +165,26 @@ impl Simulation {
         &self.air
     }
 
-    /// The particle grid.
+    /// The particle grid. Panics on a mesh cloth (see [`Simulation::model`]'s `layout`).
     pub fn grid(&self) -> &Grid {
-        &self.model.grid
+        self.model.grid()
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.model.len()
+    }
+
+    /// Each `[[grab]]`'s force on the cloth during the last step, N, summed over the particles
+    /// it holds, with how many it holds: one entry per scene grab, in scene order.
+    pub fn grab_forces(&self) -> Vec<(usize, Vec3)> {
+        let mut out = vec![(0usize, Vec3::ZERO); self.config.grabs.len()];
+        for (g, &i) in self.control.grabs.iter().zip(&self.grab_of) {
+            let o = &mut out[i as usize];
+            o.0 += 1;
+            o.1 += g.force();
+        }
+        out
     }
 
     /// Particle positions at the current time, m (structure of arrays).
@@ -331,12 +371,12 @@ impl Simulation {
     pub fn set_state(&mut self, positions: Soa, previous: Soa) -> Result<(), StepError> {
         assert_eq!(
             positions.len(),
-            self.grid().len(),
+            self.model.len(),
             "one position per particle"
         );
         assert_eq!(
             previous.len(),
-            self.grid().len(),
+            self.model.len(),
             "one previous position per particle"
         );
         let dt = self.time_step();
@@ -361,12 +401,12 @@ impl Simulation {
     ) -> Result<(), StepError> {
         assert_eq!(
             positions.len(),
-            self.grid().len(),
+            self.model.len(),
             "one position per particle"
         );
         assert_eq!(
             velocities.len(),
-            self.grid().len(),
+            self.model.len(),
             "one velocity per particle"
         );
         self.state.x = positions;
@@ -376,7 +416,7 @@ impl Simulation {
 
     fn restart_lists_and_measures(&mut self) -> Result<(), StepError> {
         if let Some(sc) = &mut self.self_collision {
-            *sc = SelfCollision::new(self.model.grid.len(), 2.0 * self.model.radius);
+            *sc = SelfCollision::new(self.model.len(), 2.0 * self.model.radius);
         }
         self.remeasure_and_check()?;
         self.settle_air_history();
@@ -423,9 +463,9 @@ impl Simulation {
         let x = &self.state.x;
         for (k, (&sealed, &q)) in p.sealed.iter().zip(&p.particle_pocket).enumerate() {
             if sealed && q == crate::air::pockets::NONE && model.wetness[k] > 0.0 {
-                let pull = model.wet_adhesion * model.wetness[k] * model.area_per_particle;
+                let pull = model.wet_adhesion * model.wetness[k] * model.area(k);
                 self.film
-                    .push((k as u32, model.grid.normal(x, k) * -pull, x.get(k)));
+                    .push((k as u32, model.normal(x, k) * -pull, x.get(k)));
             }
         }
     }
@@ -463,7 +503,7 @@ impl Simulation {
     /// Per-frame metrics of the current state (the `metrics.csv` columns).
     pub fn metrics(&self) -> FrameMetrics {
         let (max_height, max_stretch, contact_fraction) =
-            FrameMetrics::cloth(self.grid(), self.positions(), &self.state.contact);
+            FrameMetrics::cloth(self.model.layout(), self.positions(), &self.state.contact);
         FrameMetrics {
             time: self.time(),
             air_volume: self.air_volume(),
@@ -580,7 +620,11 @@ impl Simulation {
             Fused {
                 reference,
                 measures: &mut self.measures,
-                rows_per_task: exec::row_split(self.model.grid.nx, self.model.grid.nz),
+                rows_per_task: self
+                    .model
+                    .grid
+                    .as_ref()
+                    .and_then(|g| exec::row_split(g.nx, g.nz)),
                 start: t_next - dt,
             },
         );
@@ -670,7 +714,22 @@ impl Simulation {
         }
         let mut corrected = false;
         if let Some(sc) = &mut self.self_collision {
-            corrected |= sc.solve_moved(&model.grid, &mut state.x, &control.held, Some(moved2)) > 0;
+            // The rest distance's path chosen once, not per pair.
+            let hits = match model.layout() {
+                crate::model::Layout::Grid(g) => sc.solve_moved(
+                    &|a, b| g.rest_distance(a, b),
+                    &mut state.x,
+                    &control.held,
+                    Some(moved2),
+                ),
+                crate::model::Layout::Mesh(m, _) => sc.solve_moved(
+                    &|a, b| (m.rest[b] - m.rest[a]).length(),
+                    &mut state.x,
+                    &control.held,
+                    Some(moved2),
+                ),
+            };
+            corrected |= hits > 0;
         }
         if corrected && !model.colliders.is_empty() {
             let (colliders, r, held) = (&*colliders, model.radius, &control.held);
@@ -691,7 +750,7 @@ impl Simulation {
             && self.config.simulation.integrator == crate::params::Integrator::Verlet
         {
             corrected |= strain_limit::limit_strain(
-                &model.grid,
+                model.layout(),
                 state,
                 &model.inv_mass,
                 &control.held,
@@ -723,13 +782,16 @@ impl Simulation {
 
     /// Re-measures every row of cells from the current positions.
     fn remeasure_all(&mut self) {
-        let grid = &self.model.grid;
-        self.measures.remeasure_all(
-            grid,
+        let model = &self.model;
+        self.measures.remeasure_layout(
+            model.layout(),
             &self.state.x,
-            self.model.sticking,
-            self.model.radius,
-            exec::row_split(grid.nx, grid.nz),
+            model.sticking,
+            model.radius,
+            model
+                .grid
+                .as_ref()
+                .and_then(|g| exec::row_split(g.nx, g.nz)),
         );
     }
 
@@ -773,7 +835,7 @@ impl Simulation {
     /// format version).
     pub fn restore(config: SimConfig, checkpoint: Checkpoint) -> Result<Self, RestoreError> {
         let mut sim = Self::new(config)?;
-        checkpoint.check_fits(&sim.config, &sim.model.grid, &sim.state, &sim.air)?;
+        checkpoint.check_fits(&sim.config, sim.model.layout(), &sim.state, &sim.air)?;
         sim.put_back(checkpoint);
         Ok(sim)
     }
@@ -799,7 +861,7 @@ impl Simulation {
     pub fn advance(&mut self, steps: u64) -> Result<(), StepError> {
         let pooled = rayon::current_num_threads() > 1
             && rayon::current_thread_index().is_none()
-            && self.grid().len() >= PARALLEL_MIN_PARTICLES_IN_POOL;
+            && self.model.len() >= PARALLEL_MIN_PARTICLES_IN_POOL;
         let run = |sim: &mut Self| (0..steps).try_for_each(|_| sim.step());
         if pooled {
             rayon::scope(|_| run(self))

@@ -63,6 +63,7 @@ fn thesis_scene() -> SimConfig {
     cfg.grabs = vec![
         GrabSpec {
             particle: [0, 0],
+            pick: None,
             keys: vec![
                 key(0.0, 0.0, 0.0, 0.0),
                 key(0.02, 0.0, 0.03, 0.0),
@@ -208,6 +209,7 @@ fn checkpoint_restore_continues_bit_for_bit_with_the_implicit_integrator() {
     cfg.simulation.time_step = 1.0 / 600.0;
     cfg.grabs = vec![GrabSpec {
         particle: [0, 0],
+        pick: None,
         keys: vec![
             GrabKey {
                 time: 0.0,

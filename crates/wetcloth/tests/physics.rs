@@ -155,6 +155,7 @@ fn boyle_pressure_times_volume_is_constant_during_a_run() {
     cfg.grabs = (0..15 * 15)
         .map(|k| wetcloth::GrabSpec {
             particle: [k % 15, k / 15],
+            pick: None,
             keys: vec![
                 wetcloth::GrabKey {
                     time: 0.0,

@@ -178,6 +178,7 @@ fn split_pocket_keeps_its_pressure() {
     cfg.grabs = (8..=22)
         .map(|j| wetcloth::GrabSpec {
             particle: [15, j],
+            pick: None,
             keys: vec![
                 wetcloth::GrabKey {
                     time: 0.1,
@@ -436,6 +437,7 @@ fn a_seal_opens_beyond_the_seal_distance_and_closes_within_half_of_it() {
         }
         cfg.grabs = vec![GrabSpec {
             particle: [5, 5],
+            pick: None,
             keys,
         }];
         let mut sim = Simulation::new(cfg).unwrap();

@@ -26,8 +26,6 @@ use crate::model::Model;
 /// for a particle resting on the table (at 1/20000 s the flags of 92 % of a cloth lying stuck
 /// dropped for 13 ms and the leak saw its whole border open).
 pub fn open_border_length(model: &Model, x: &Soa, reach: Real) -> Real {
-    let border = &model.border;
-    let n = border.len();
     let lifted = |k: usize| {
         let p = x.get(k);
         !model
@@ -35,18 +33,21 @@ pub fn open_border_length(model: &Model, x: &Soa, reach: Real) -> Real {
             .iter()
             .any(|c| c.distance_within(p, reach).is_some_and(|(d, _)| d <= reach))
     };
-    if n == 0 {
-        return 0.0;
-    }
-    // Each border particle is tested once: the loop carries the last edge's end.
-    let start = lifted(border[0] as usize);
-    let mut la = start;
     let mut length = 0.0;
-    for e in 0..n {
-        let (a, b) = (border[e] as usize, border[(e + 1) % n] as usize);
-        let lb = if e + 1 == n { start } else { lifted(b) };
-        length += 0.5 * Real::from(u8::from(la) + u8::from(lb)) * model.grid.rest_distance(a, b);
-        la = lb;
+    for border in model.border_loops() {
+        let n = border.len();
+        if n == 0 {
+            continue;
+        }
+        // Each border particle is tested once: the loop carries the last edge's end.
+        let start = lifted(border[0] as usize);
+        let mut la = start;
+        for e in 0..n {
+            let (a, b) = (border[e] as usize, border[(e + 1) % n] as usize);
+            let lb = if e + 1 == n { start } else { lifted(b) };
+            length += 0.5 * Real::from(u8::from(la) + u8::from(lb)) * model.rest_distance(a, b);
+            la = lb;
+        }
     }
     length
 }

@@ -181,8 +181,8 @@ impl Pockets {
     /// enclosed air at atmospheric pressure, and the seeded pockets of `air.pockets` holding
     /// their amounts.
     pub(crate) fn new(air: &AirParams, model: &Model, state: &State, measures: &Measures) -> Self {
-        let n = model.grid.len();
-        let cells = (model.grid.nx - 1) * (model.grid.nz - 1);
+        let n = model.grid().len();
+        let cells = (model.grid().nx - 1) * (model.grid().nz - 1);
         let mut p = Self {
             pockets: Vec::new(),
             sealed: vec![false; n],
@@ -208,7 +208,7 @@ impl Pockets {
         // particle's seed (the first disc holding it) is found once: particles x seeds. (Asking
         // again per seed cost seeds^2 x particles: 20 000 seeds took 30 s before the first
         // step.)
-        let rest = model.grid.rest_positions(crate::math::Vec3::ZERO);
+        let rest = model.grid().rest_positions(crate::math::Vec3::ZERO);
         let seed_of: Vec<u32> = (0..n)
             .map(|k| {
                 air.pockets
@@ -346,7 +346,7 @@ impl Pockets {
             self.gaps(model, coast, pending.end);
             coast_cells.resize(self.cell_volume.len(), 0.0);
             surface_cell_volumes(
-                &model.grid,
+                model.grid(),
                 coast,
                 &self.scratch.gap,
                 &self.scratch.normal,
@@ -436,7 +436,7 @@ impl Pockets {
     /// sealed particle.
     fn spread(&mut self, model: &Model, pressures: &[Real]) {
         self.spread_bare = pressures.is_empty();
-        let (nx, nz) = (model.grid.nx, model.grid.nz);
+        let (nx, nz) = (model.grid().nx, model.grid().nz);
         for j in 0..nz {
             for i in 0..nx {
                 let k = j * nx + i;
@@ -500,7 +500,7 @@ impl Pockets {
         if self.sealed == self.previous_sealed {
             // The same sealed particles: the same regions and pockets, with their air (their
             // volumes are measured above); only the rims may have moved.
-            self.measure_rims(&model.grid);
+            self.measure_rims(model.grid());
         } else {
             self.spread_bare = false;
             self.resegment(air, model, false);
@@ -558,7 +558,7 @@ impl Pockets {
     fn cell_volumes(&mut self, model: &Model, x: &Soa, measures: &Measures) {
         if self.surface {
             surface_cell_volumes(
-                &model.grid,
+                model.grid(),
                 x,
                 &self.scratch.gap,
                 &self.scratch.normal,
@@ -615,7 +615,7 @@ impl Pockets {
     /// Finds the regions of the sealed state, and the new pockets with their air (see the
     /// module docs). `fresh`: at t = 0, every pocket takes the air it encloses.
     fn resegment(&mut self, air: &AirParams, model: &Model, fresh: bool) {
-        let grid = &model.grid;
+        let grid = model.grid();
         let (nx, nz) = (grid.nx, grid.nz);
         let m = nx - 1;
         let cells = m * (nz - 1);

@@ -102,7 +102,7 @@ impl AirModel {
                 // cell at a time. (A pocket of air is a gas spring, whose pressure at the
                 // step's end the solve finds: its share goes to `rim`.)
                 if p.sealed.iter().any(|&s| s) {
-                    let (nx, nz) = (model.grid.nx, model.grid.nz);
+                    let (nx, nz) = (model.grid().nx, model.grid().nz);
                     let vacuum = |q: usize| {
                         let pocket = &p.pockets[q];
                         if pocket.amount > 0.0 { 0.0 } else { -pa }

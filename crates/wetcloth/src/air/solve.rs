@@ -85,7 +85,7 @@ impl SolveShare {
         // The bubble's volume now (m^3): measured once, the miss is measured after each solve.
         self.start_volume = match model.sticking {
             Some(plane) if self.stiffness > 0.0 => {
-                super::volume(&model.grid, x, plane, model.radius)
+                super::volume(model.grid(), x, plane, model.radius)
             }
             _ => 0.0,
         };
@@ -210,7 +210,7 @@ impl SolveShare {
             end.set(k, x.get(k) + v * dt);
             linear += g.get(k).dot(v) * dt;
         }
-        let then = super::volume(&model.grid, end, plane, model.radius);
+        let then = super::volume(model.grid(), end, plane, model.radius);
         then - self.start_volume - linear
     }
 

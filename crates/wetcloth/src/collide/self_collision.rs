@@ -135,7 +135,7 @@ impl SelfCollision {
         }
     }
 
-    fn rebuild(&mut self, grid: &Grid, p: &Soa) {
+    fn rebuild(&mut self, p: &Soa) {
         self.rebuilds += 1;
         let n = p.len();
         let cell = self.diameter + self.skin;
@@ -201,7 +201,6 @@ impl SelfCollision {
                 out
             })
             .collect();
-        let _ = grid;
         self.start.clear();
         self.list.clear();
         self.start.push(0);
@@ -215,14 +214,14 @@ impl SelfCollision {
     /// Pushes overlapping particles apart. `fixed[i]` marks grabbed particles, which do not
     /// move. Returns the number of overlapping (ordered) pairs found.
     pub fn solve(&mut self, grid: &Grid, p: &mut Soa, fixed: &[bool]) -> usize {
-        self.solve_moved(grid, p, fixed, None)
+        self.solve_moved(&|a, b| grid.rest_distance(a, b), p, fixed, None)
     }
 
     /// [`SelfCollision::solve`], given the largest squared distance (m^2) any particle of `p`
     /// has moved from [`SelfCollision::reference`] if the caller measured it already.
-    pub fn solve_moved(
+    pub fn solve_moved<R: Fn(usize, usize) -> Real + Sync>(
         &mut self,
-        grid: &Grid,
+        rest_distance: &R,
         p: &mut Soa,
         fixed: &[bool],
         moved2: Option<Real>,
@@ -239,7 +238,7 @@ impl SelfCollision {
             _ => self.needs_rebuild(p),
         };
         if rebuild {
-            self.rebuild(grid, p);
+            self.rebuild(p);
         }
         if self.list.is_empty() {
             return 0;
@@ -254,7 +253,7 @@ impl SelfCollision {
                 let pi = pr.get(i);
                 for &j in &list[start[i] as usize..start[i + 1] as usize] {
                     let j = j as usize;
-                    let min = d.min(grid.rest_distance(i, j));
+                    let min = d.min(rest_distance(i, j));
                     let delta = pi - pr.get(j);
                     let dist = delta.length();
                     if dist < min && dist > 0.0 {

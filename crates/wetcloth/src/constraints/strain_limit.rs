@@ -23,7 +23,7 @@
 
 use crate::collide::{Collider, contact};
 use crate::math::{Real, Vec3};
-use crate::model::Grid;
+use crate::model::{Grid, Layout};
 use crate::state::State;
 
 /// Share of the limit by which a spring may still exceed it when the sweeps stop: the limit
@@ -48,18 +48,30 @@ pub struct Outcome {
 const SPRINGS: [(usize, usize, usize, usize); 4] =
     [(0, 0, 1, 0), (0, 0, 0, 1), (0, 0, 1, 1), (1, 0, 0, 1)];
 
-/// Calls `f(a, b, s)` for every structural and shear spring (ends `a`, `b`, kind `s` indexing
-/// [`SPRINGS`]) in the sweep order.
+/// Calls `f(a, b, rest)` for every structural and shear spring (ends `a`, `b`, rest length
+/// `rest`, m) in the sweep order: the grid's stencil row by row, or a mesh's springs along its
+/// edges in edge order.
 #[inline]
-fn for_each_spring(grid: &Grid, mut f: impl FnMut(usize, usize, usize)) {
-    let (nx, nz) = (grid.nx, grid.nz);
-    for j in 0..nz {
-        for i in 0..nx {
-            for (s, &(ai, aj, bi, bj)) in SPRINGS.iter().enumerate() {
-                let (ia, ja, ib, jb) = (i + ai, j + aj, i + bi, j + bj);
-                if ia < nx && ib < nx && jb < nz {
-                    f(grid.index(ia, ja), grid.index(ib, jb), s);
+fn for_each_spring(layout: Layout<'_>, mut f: impl FnMut(usize, usize, Real)) {
+    match layout {
+        Layout::Grid(grid) => {
+            let rest = rest_lengths(grid);
+            let (nx, nz) = (grid.nx, grid.nz);
+            for j in 0..nz {
+                for i in 0..nx {
+                    for (s, &(ai, aj, bi, bj)) in SPRINGS.iter().enumerate() {
+                        let (ia, ja, ib, jb) = (i + ai, j + aj, i + bi, j + bj);
+                        if ia < nx && ib < nx && jb < nz {
+                            f(grid.index(ia, ja), grid.index(ib, jb), rest[s]);
+                        }
+                    }
                 }
+            }
+        }
+        Layout::Mesh(_, springs) => {
+            for s in 0..springs.edge_count {
+                let [a, b] = springs.ends[s];
+                f(a as usize, b as usize, springs.rest[s]);
             }
         }
     }
@@ -106,7 +118,7 @@ impl Scratch {
 /// particles is left in `scratch` ([`Scratch::pulls`]): their hands' share of the limit.
 #[allow(clippy::too_many_arguments)] // the cloth, its constraint and its colliders
 pub fn limit_strain(
-    grid: &Grid,
+    layout: Layout<'_>,
     state: &mut State,
     inv_mass: &[Real],
     held: &[bool],
@@ -116,9 +128,6 @@ pub fn limit_strain(
     radius: Real,
     scratch: &mut Scratch,
 ) -> Outcome {
-    let rest = rest_lengths(grid);
-    let max_len = rest.map(|l| l * (1.0 + limit));
-    let max_len2 = max_len.map(|l| l * l);
     let w = |k: usize| if held[k] { 0.0 } else { inv_mass[k] };
     let mut out = Outcome::default();
     let moved = &mut scratch.moved;
@@ -128,19 +137,20 @@ pub fn limit_strain(
         out.sweeps += 1;
         moved.clear();
         let mut worst: Real = 0.0;
-        for_each_spring(grid, |a, b, s| {
+        for_each_spring(layout, |a, b, rest| {
+            let max_len = rest * (1.0 + limit);
             let d = state.x.get(b) - state.x.get(a);
             let len2 = d.length_squared();
-            if len2 <= max_len2[s] {
+            if len2 <= max_len * max_len {
                 return;
             }
             let len = len2.sqrt();
-            worst = worst.max(len / rest[s] - 1.0);
+            worst = worst.max(len / rest - 1.0);
             let (wa, wb) = (w(a), w(b));
             if wa + wb == 0.0 {
                 return;
             }
-            let corr = d * ((len - max_len[s]) / (len * (wa + wb)));
+            let corr = d * ((len - max_len) / (len * (wa + wb)));
             state.x.set(a, state.x.get(a) + corr * wa);
             state.x.set(b, state.x.get(b) - corr * wb);
             // A held end does not move: its hand holds it against the pull that moved the free
@@ -173,11 +183,10 @@ pub fn limit_strain(
 }
 
 /// Largest relative stretch of a structural or shear spring of `grid` in `x` (0.1 = 10 %).
-pub fn max_stretch(grid: &Grid, x: &crate::math::Soa) -> Real {
-    let rest = rest_lengths(grid);
+pub fn max_stretch(layout: Layout<'_>, x: &crate::math::Soa) -> Real {
     let mut worst = Real::NEG_INFINITY;
-    for_each_spring(grid, |a, b, s| {
-        worst = worst.max((x.get(b) - x.get(a)).length() / rest[s] - 1.0);
+    for_each_spring(layout, |a, b, rest| {
+        worst = worst.max((x.get(b) - x.get(a)).length() / rest - 1.0);
     });
     worst
 }
@@ -215,9 +224,9 @@ mod tests {
         let pinned = state.x.get(17);
         let inv = vec![1.0; grid.len()];
         let energy = state.kinetic_energy(1.0, dt);
-        let stretched = max_stretch(&grid, &state.x);
+        let stretched = max_stretch(Layout::Grid(&grid), &state.x);
         let out = limit_strain(
-            &grid,
+            Layout::Grid(&grid),
             &mut state,
             &inv,
             &held,
@@ -227,7 +236,7 @@ mod tests {
             0.0,
             &mut Scratch::default(),
         );
-        let after = max_stretch(&grid, &state.x);
+        let after = max_stretch(Layout::Grid(&grid), &state.x);
         assert!(stretched > 0.3, "{stretched}");
         assert!(out.corrected && out.sweeps < 1000, "{out:?}");
         assert!(after <= 0.1 * 1.01, "{after} after {} sweeps", out.sweeps);

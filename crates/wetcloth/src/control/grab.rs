@@ -23,11 +23,74 @@ pub struct GrabKey {
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct GrabSpec {
-    /// Grid index (column along x, row along z), 0-based.
+    /// Grid index (column along x, row along z), 0-based (`particle = [i, j]`; the grid only).
+    /// Unused when [`GrabSpec::pick`] names the particles.
     pub particle: [usize; 2],
+    /// Which particles it holds, when not `particle`: a vertex, the particle nearest a point,
+    /// or every particle inside a ball or a box (at t = 0). `None`: `particle`.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub pick: Option<GrabPick>,
     /// Path keys, linear in between; the particle is free before the first key and held at the
     /// last key's position after it.
     pub keys: Vec<GrabKey>,
+}
+
+/// The particles a grab holds (`[[grab]]` takes exactly one of `particle`, `vertex`, `near` and
+/// `within`).
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum GrabPick {
+    /// `vertex = K`: particle `K` (0-based; the mesh file's vertex, or `j * nx + i` on the grid).
+    Vertex(usize),
+    /// `near = [x, y, z]`: the particle nearest this point (m) at t = 0, ties to the lowest index.
+    Near(Vec3),
+    /// `within = { center, radius }`: every particle inside the ball (m) at t = 0.
+    Ball {
+        /// Centre, m.
+        center: Vec3,
+        /// Radius, m.
+        radius: Real,
+    },
+    /// `within = { center, half_size }`: every particle inside the box (m) at t = 0.
+    Box {
+        /// Centre, m.
+        center: Vec3,
+        /// Half sizes along x, y, z, m.
+        half_size: Vec3,
+    },
+}
+
+impl GrabPick {
+    /// The particles picked among positions `x` (m, at t = 0), in increasing order; empty if
+    /// none (a vertex out of range, or no particle inside).
+    pub fn particles(&self, x: &crate::math::Soa) -> Vec<usize> {
+        let n = x.len();
+        match *self {
+            GrabPick::Vertex(k) => (k < n).then_some(k).into_iter().collect(),
+            GrabPick::Near(p) => {
+                let mut best: Option<(Real, usize)> = None;
+                for k in 0..n {
+                    let d = (x.get(k) - p).length_squared();
+                    if best.is_none_or(|(b, _)| d < b) {
+                        best = Some((d, k));
+                    }
+                }
+                best.map(|(_, k)| k).into_iter().collect()
+            }
+            GrabPick::Ball { center, radius } => (0..n)
+                .filter(|&k| (x.get(k) - center).length_squared() <= radius * radius)
+                .collect(),
+            GrabPick::Box { center, half_size } => (0..n)
+                .filter(|&k| {
+                    let d = (x.get(k) - center).abs();
+                    d.x <= half_size.x && d.y <= half_size.y && d.z <= half_size.z
+                })
+                .collect(),
+        }
+    }
 }
 
 impl GrabSpec {
@@ -35,6 +98,7 @@ impl GrabSpec {
     pub fn lift(particle: [usize; 2], t0: Real, t1: Real, height: Real) -> Self {
         Self {
             particle,
+            pick: None,
             keys: vec![
                 GrabKey {
                     time: t0,

@@ -3,7 +3,7 @@
 
 mod grab;
 
-pub use grab::{Grab, GrabKey, GrabMotion, GrabSpec};
+pub use grab::{Grab, GrabKey, GrabMotion, GrabPick, GrabSpec};
 
 use crate::math::{Real, Soa, Vec3};
 

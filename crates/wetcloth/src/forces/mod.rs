@@ -5,6 +5,7 @@
 //! |---|---|---|---|
 //! | springs | [`spring_force`] | `spring::RowSprings`, `spring::add_row` | eq. 3.6 |
 //! | gravity and velocity damping | [`gravity::weight_and_damping`] | `gravity::set_row` | eq. 3.3 |
+//! | springs on a mesh cloth | `mesh_spring::MeshSprings::force` | `MeshSprings::force_on` | eq. 3.6 |
 //! | air pressure | [`pressure_force`] | `pressure::add_row` | eq. 3.7 (physical sign) |
 //!
 //! The normal force and friction (eq. 3.4-3.5) are position corrections, in
@@ -15,6 +16,7 @@
 //! a fixed order, so the result does not depend on how rows are split between threads.
 
 pub mod gravity;
+pub mod mesh_spring;
 pub mod pressure;
 pub mod spring;
 

@@ -18,6 +18,7 @@
 pub(crate) mod implicit;
 pub(crate) mod multigrid;
 pub(crate) mod verlet;
+pub(crate) mod verlet_mesh;
 
 use crate::air::{AirModel, Timing};
 use crate::control::Control;
@@ -68,7 +69,7 @@ impl IntegratorState {
     /// The integrator `kind` for `model`, the implicit one solving to `budget`.
     pub fn new(kind: Integrator, budget: SolveBudget, model: &Model) -> Self {
         match kind {
-            Integrator::Verlet => IntegratorState::Verlet(verlet::Verlet::new(&model.grid)),
+            Integrator::Verlet => IntegratorState::Verlet(verlet::Verlet::new(model)),
             Integrator::Implicit => {
                 IntegratorState::Implicit(Box::new(implicit::Implicit::new(model, budget)))
             }

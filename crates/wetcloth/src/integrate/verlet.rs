@@ -42,6 +42,8 @@ pub(crate) struct Verlet {
     coast: measure::Measures,
     /// Each row's largest squared move from the self-collision reference, m^2.
     moved: Vec<Real>,
+    /// The scratch of the general path, on a mesh cloth.
+    mesh: Option<Box<super::verlet_mesh::MeshVerlet>>,
 }
 
 /// The springs of the current and the previous row, and a row of scratch.
@@ -121,8 +123,17 @@ struct StepConsts<'a> {
 }
 
 impl Verlet {
-    /// Scratch for the particles of `grid`.
-    pub fn new(grid: &crate::model::Grid) -> Self {
+    /// Scratch for the particles of `model`: the grid's rows, or the mesh's general path.
+    pub fn new(model: &Model) -> Self {
+        let Some(grid) = &model.grid else {
+            return Self {
+                mesh: Some(Box::new(super::verlet_mesh::MeshVerlet::new(
+                    model.layout(),
+                    model.len(),
+                ))),
+                ..Self::default()
+            };
+        };
         let (n, nx) = (grid.len(), grid.nx);
         Self {
             force: Soa::zeros(n),
@@ -130,6 +141,7 @@ impl Verlet {
             saved_prev: Vec::new(),
             coast: measure::Measures::for_grid(grid, false),
             moved: vec![0.0; n / nx],
+            mesh: None,
         }
     }
 
@@ -142,6 +154,7 @@ impl Verlet {
             + self.saved_prev.capacity() * std::mem::size_of::<Vec3>()
             + self.coast.heap_bytes()
             + self.moved.capacity() * std::mem::size_of::<Real>()
+            + self.mesh.as_ref().map_or(0, |m| m.heap_bytes())
     }
 
     /// One step of `dt` s: forces, position Verlet, contacts, the hand. Returns the largest
@@ -155,8 +168,15 @@ impl Verlet {
         dt: Real,
         fused: Fused<'_>,
     ) -> Real {
+        // The path is chosen once per step: the grid's rows, or the mesh's particles.
+        let grid = match model.layout() {
+            crate::model::Layout::Grid(grid) => grid,
+            crate::model::Layout::Mesh(mesh, springs) => {
+                let scratch = self.mesh.as_mut().expect("a mesh cloth's scratch");
+                return scratch.step(model, mesh, springs, state, control, air, dt, fused);
+            }
+        };
         state.use_previous_positions(dt);
-        let grid = &model.grid;
         let mass = model.particle_mass;
         let Motion::Previous(prev) = &mut state.motion else {
             unreachable!("converted above")

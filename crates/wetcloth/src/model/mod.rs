@@ -3,22 +3,56 @@
 //! once from a [`SimConfig`]; the time-varying state is in [`crate::state`], the user's input
 //! in [`crate::control`].
 
+mod cloth_mesh;
 mod grid;
 
+pub use cloth_mesh::{ClothMesh, ClothMeshError, MAX_MESH_PARTICLES};
 pub use grid::{Grid, Neighbour, STENCIL};
+
+use crate::forces::mesh_spring::MeshSprings;
+use std::sync::Arc;
 
 use crate::collide::Collider;
 use crate::collide::StickingPlane;
 use crate::collide::plane::PlaneContact;
 use crate::forces::spring::SpringConsts;
-use crate::math::{Real, Vec3};
+use crate::math::{Real, Soa, Vec3};
 use crate::params::SimConfig;
+
+/// The cloth's layout: the built-in grid (its fast paths) or a mesh with its springs.
+#[derive(Clone, Copy, Debug)]
+pub enum Layout<'a> {
+    /// The grid.
+    Grid(&'a Grid),
+    /// A mesh and its springs.
+    Mesh(&'a ClothMesh, &'a MeshSprings),
+}
+
+impl Layout<'_> {
+    /// Rest distance between particles `a` and `b`, m.
+    #[inline]
+    pub fn rest_distance(&self, a: usize, b: usize) -> Real {
+        match self {
+            Layout::Grid(g) => g.rest_distance(a, b),
+            Layout::Mesh(m, _) => (m.rest[b] - m.rest[a]).length(),
+        }
+    }
+}
 
 /// The static description of a simulation.
 #[derive(Clone, Debug)]
 pub struct Model {
-    /// The particle grid and its rest geometry (thesis 3.1).
-    pub grid: Grid,
+    /// The particle grid and its rest geometry (thesis 3.1); `None` for a cloth of any shape
+    /// ([`Model::mesh`]).
+    pub grid: Option<Grid>,
+    /// A cloth of any shape (`[cloth] mesh`): its topology and rest geometry; `None` for the
+    /// built-in grid, whose passes read [`Model::grid`].
+    pub mesh: Option<Arc<ClothMesh>>,
+    /// The springs of a mesh cloth (its edges and across its edges); `None` on the grid.
+    pub mesh_springs: Option<Arc<MeshSprings>>,
+    /// Each particle's area S, m^2, where particles differ (a mesh cloth: a third of each
+    /// triangle around it); `None` when every particle has [`Model::area_per_particle`].
+    pub areas: Option<Vec<Real>>,
     /// Mass of one particle, kg: the cloth's mass shared equally (thesis 3.1), plus the water
     /// of a uniformly wet cloth (`[cloth] water_mass`). When the cloth is painted with several
     /// wetnesses and holds water, particles differ: see [`Model::masses`].
@@ -38,12 +72,16 @@ pub struct Model {
     pub wet_adhesion: Real,
     /// Radius of a particle's collision sphere, m: `(thickness + collision_margin) / 2`.
     pub radius: Real,
-    /// Cloth area per particle S, m^2: rest area / particle count (thesis 3.4).
+    /// Cloth area per particle S, m^2: rest area / particle count (thesis 3.4); on a mesh the
+    /// mean of [`Model::areas`].
     pub area_per_particle: Real,
     /// Rest area of the whole cloth, m^2.
     pub cloth_area: Real,
-    /// Border particles in order around the cloth, each once (for leaks through the border).
+    /// Border particles in order around the cloth, each once (for leaks through the border):
+    /// loop after loop on a mesh (see [`Model::border_loops`]).
     pub border: Vec<u32>,
+    /// Where each boundary loop ends in [`Model::border`] (exclusive): one loop on the grid.
+    pub border_ends: Vec<u32>,
     /// How the pressure becomes forces on the particles.
     pub pressure_force: crate::params::PressureForce,
     /// Gravitational acceleration, m/s^2 (thesis eq. 3.3).
@@ -72,31 +110,58 @@ pub struct Model {
 }
 
 impl Model {
-    /// The model of a validated configuration.
+    /// The model of a validated configuration. A mesh cloth the configuration names must be a
+    /// valid [`ClothMesh`] (`SimConfig::validate` checks it).
     pub fn new(config: &SimConfig) -> Self {
-        let grid = Grid::new(&config.cloth);
-        let n = grid.len();
-        let cloth_area = config.cloth.size[0] * config.cloth.size[1];
-        let radius = config.cloth.particle_radius();
         let cloth = &config.cloth;
-        let area_per_particle = cloth_area / n as Real;
-        // Wetness at each particle's rest position, relative to the cloth's centre.
-        let rest = grid.rest_positions(Vec3::ZERO);
-        let wetness: Vec<Real> = (0..n)
-            .map(|k| cloth.wetness_at(rest.x[k], rest.z[k]))
-            .collect();
-        let dry_share = cloth.mass / n as Real;
-        let water = |w: Real| cloth.water_mass * w * area_per_particle;
-        let uniform = cloth.uniformly_wet();
-        let particle_mass = if cloth.water_mass > 0.0 && uniform {
-            dry_share + water(cloth.wetness)
-        } else {
-            dry_share
+        let (grid, mesh) = match &cloth.mesh {
+            None => (Some(Grid::new(cloth)), None),
+            Some(src) => {
+                let (triangles, _) = src.triangles();
+                let mesh = ClothMesh::new(src.placed(cloth.position), triangles)
+                    .expect("a validated configuration's cloth mesh");
+                (None, Some(Arc::new(mesh)))
+            }
         };
-        let masses = (cloth.water_mass > 0.0 && !uniform).then(|| {
+        let n = grid
+            .as_ref()
+            .map_or_else(|| mesh.as_ref().map_or(0, |m| m.len()), Grid::len);
+        let cloth_area = match &mesh {
+            None => cloth.size[0] * cloth.size[1],
+            Some(m) => m.total_area(),
+        };
+        let radius = cloth.particle_radius();
+        let area_per_particle = cloth_area / n as Real;
+        let areas = mesh.as_ref().map(|m| m.area.clone());
+        // Wetness at each particle's rest position: on the grid relative to the cloth's centre.
+        let wetness: Vec<Real> = match (&grid, &mesh) {
+            (Some(grid), _) => {
+                let rest = grid.rest_positions(Vec3::ZERO);
+                (0..n)
+                    .map(|k| cloth.wetness_at(rest.x[k], rest.z[k]))
+                    .collect()
+            }
+            (None, Some(m)) => m.rest.iter().map(|&p| cloth.wetness_at_point(p)).collect(),
+            (None, None) => Vec::new(),
+        };
+        let uniform = cloth.uniformly_wet();
+        // The dry cloth's mass: equal shares on the grid (the thesis), by area on a mesh.
+        let dry_share = |k: usize| match &areas {
+            None => cloth.mass / n as Real,
+            Some(a) => cloth.mass * a[k] / cloth_area,
+        };
+        let area_of = |k: usize| areas.as_ref().map_or(area_per_particle, |a| a[k]);
+        let water = |k: usize, w: Real| cloth.water_mass * w * area_of(k);
+        let particle_mass = if cloth.water_mass > 0.0 && uniform {
+            cloth.mass / n as Real + cloth.water_mass * cloth.wetness * area_per_particle
+        } else {
+            cloth.mass / n as Real
+        };
+        let masses = ((cloth.water_mass > 0.0 && !uniform) || areas.is_some()).then(|| {
             wetness
                 .iter()
-                .map(|&w| dry_share + water(w))
+                .enumerate()
+                .map(|(k, &w)| dry_share(k) + water(k, w))
                 .collect::<Vec<_>>()
         });
         let inv_mass = match &masses {
@@ -106,7 +171,51 @@ impl Model {
         let f = cloth.dry_friction_factor;
         let friction_scale = (f != 1.0 && wetness.iter().any(|&w| w != 1.0))
             .then(|| wetness.iter().map(|&w| f + (1.0 - f) * w).collect());
+        let mesh_springs = mesh.as_ref().map(|m| {
+            Arc::new(MeshSprings::new(
+                m,
+                cloth.structural_stiffness,
+                cloth.shear_stiffness,
+            ))
+        });
+        let springs = match &grid {
+            Some(grid) => SpringConsts {
+                nx: grid.nx,
+                nz: grid.nz,
+                structural: cloth.structural_stiffness,
+                shear: cloth.shear_stiffness,
+                rest_x: grid.dx,
+                rest_z: grid.dz,
+                rest_diag: grid.dx.hypot(grid.dz),
+            },
+            None => SpringConsts {
+                nx: n,
+                nz: 1,
+                structural: cloth.structural_stiffness,
+                shear: cloth.shear_stiffness,
+                rest_x: 0.0,
+                rest_z: 0.0,
+                rest_diag: 0.0,
+            },
+        };
+        let border = match (&grid, &mesh) {
+            (Some(g), _) => g.border_loop(),
+            (None, Some(m)) => m.border(),
+            (None, None) => Vec::new(),
+        };
+        let border_ends = match &mesh {
+            Some(m) => m
+                .boundary
+                .iter()
+                .scan(0u32, |end, l| {
+                    *end += l.len() as u32;
+                    Some(*end)
+                })
+                .collect(),
+            None => vec![border.len() as u32],
+        };
         Self {
+            border_ends,
             particle_mass,
             masses,
             inv_mass,
@@ -115,21 +224,14 @@ impl Model {
             wet_adhesion: cloth.wet_adhesion,
             radius,
             area_per_particle,
+            areas,
             cloth_area,
-            border: grid.border_loop(),
+            border,
             pressure_force: config.air.pressure_force,
             gravity: config.simulation.gravity,
             damping: config.cloth.damping,
             strain_limit: config.cloth.strain_limit,
-            springs: SpringConsts {
-                nx: grid.nx,
-                nz: grid.nz,
-                structural: config.cloth.structural_stiffness,
-                shear: config.cloth.shear_stiffness,
-                rest_x: grid.dx,
-                rest_z: grid.dz,
-                rest_diag: grid.dx.hypot(grid.dz),
-            },
+            springs,
             colliders: config.colliders.clone(),
             sticking: config.sticking_plane(),
             planes: config
@@ -154,6 +256,91 @@ impl Model {
                 .cloned()
                 .collect(),
             grid,
+            mesh,
+            mesh_springs,
+        }
+    }
+
+    /// Number of particles.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.inv_mass.len()
+    }
+
+    /// True for a model without particles (never, for a validated configuration).
+    pub fn is_empty(&self) -> bool {
+        self.inv_mass.is_empty()
+    }
+
+    /// The grid of a grid cloth. Panics on a mesh cloth: for the grid's own passes, which a
+    /// step chooses only when [`Model::grid`] is `Some`.
+    #[inline]
+    pub fn grid(&self) -> &Grid {
+        self.grid
+            .as_ref()
+            .expect("a pass of the grid's fast path on a mesh cloth")
+    }
+
+    /// The boundary loops of the cloth, each a slice of [`Model::border`] in order.
+    pub fn border_loops(&self) -> impl Iterator<Item = &[u32]> {
+        let mut start = 0usize;
+        self.border_ends.iter().map(move |&end| {
+            let l = &self.border[start..end as usize];
+            start = end as usize;
+            l
+        })
+    }
+
+    /// Rest distance between particles `a` and `b`, m.
+    #[inline]
+    pub fn rest_distance(&self, a: usize, b: usize) -> Real {
+        self.layout().rest_distance(a, b)
+    }
+
+    /// The cloth's layout, for passes that choose their path once.
+    #[inline]
+    pub fn layout(&self) -> Layout<'_> {
+        match (&self.grid, &self.mesh, &self.mesh_springs) {
+            (Some(g), _, _) => Layout::Grid(g),
+            (None, Some(m), Some(s)) => Layout::Mesh(m, s),
+            _ => unreachable!("a model has a grid or a mesh"),
+        }
+    }
+
+    /// The area S of particle `k`, m^2.
+    #[inline]
+    pub fn area(&self, k: usize) -> Real {
+        self.areas.as_ref().map_or(self.area_per_particle, |a| a[k])
+    }
+
+    /// Unit normal of particle `k` at positions `x` (the grid's central differences, or the
+    /// mesh's area-weighted triangle normals).
+    #[inline]
+    pub fn normal(&self, x: &Soa, k: usize) -> Vec3 {
+        match (&self.grid, &self.mesh) {
+            (Some(g), _) => g.normal(x, k),
+            (None, Some(m)) => m.normal(x, k),
+            (None, None) => Vec3::ZERO,
+        }
+    }
+
+    /// The rest positions at t = 0, m: the grid flat in the xz plane centred on `centre`, or the
+    /// mesh as placed.
+    pub fn rest_positions(&self, centre: Vec3) -> Soa {
+        match (&self.grid, &self.mesh) {
+            (Some(g), _) => g.rest_positions(centre),
+            (None, Some(m)) => m.rest_positions(),
+            (None, None) => Soa::zeros(0),
+        }
+    }
+
+    /// The triangles of the cloth (the grid's two per cell, or the mesh's), wound with the
+    /// air below.
+    pub fn triangles(&self) -> Vec<[u32; 3]> {
+        match (&self.grid, &self.mesh) {
+            (Some(g), _) => g.triangles(),
+            (None, Some(m)) => m.triangles.clone(),
+            (None, None) => Vec::new(),
         }
     }
 
@@ -167,7 +354,7 @@ impl Model {
     pub fn total_mass(&self) -> Real {
         match &self.masses {
             Some(m) => m.iter().sum(),
-            None => self.particle_mass * self.grid.len() as Real,
+            None => self.particle_mass * self.len() as Real,
         }
     }
 
@@ -177,6 +364,10 @@ impl Model {
             + self.wetness.capacity()
             + self.masses.as_ref().map_or(0, Vec::capacity)
             + self.friction_scale.as_ref().map_or(0, Vec::capacity);
-        reals * std::mem::size_of::<Real>() + self.border.capacity() * 4
+        reals * std::mem::size_of::<Real>()
+            + self.border.capacity() * 4
+            + self.areas.as_ref().map_or(0, |a| a.capacity() * 8)
+            + self.mesh.as_ref().map_or(0, |m| m.heap_bytes())
+            + self.mesh_springs.as_ref().map_or(0, |s| s.heap_bytes())
     }
 }

@@ -63,6 +63,67 @@ pub struct ClothParams {
     /// larger value (1000 Pa, the capillary pressure `2 gamma / d` of a 0.15 mm film) keeps
     /// bubbles under a soft cloth from peeling their own rims. Default 300; range [0, 1e6].
     pub wet_adhesion: Real,
+    /// A cloth of any shape (`[cloth] mesh`): the triangle or polygon mesh it is, placed by
+    /// `position`; `None` (the default) for the built-in grid of `size` and `resolution`.
+    pub mesh: Option<ClothMeshSource>,
+}
+
+/// A cloth read from a mesh file (`[cloth] mesh = "towel.obj"`, with `rotation`, `scale` and
+/// `flip_normals`; the scene reader reads the file, the core reads none). Particle `k` is the
+/// file's vertex `k`; polygons are split into a fan of triangles for the physics and kept whole
+/// for the outputs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClothMeshSource {
+    /// The file it was read from (for descriptions; the scene reader gives the absolute path).
+    pub file: String,
+    /// The vertices as given, in the file's units (before scale, rotation and position).
+    pub vertices: std::sync::Arc<Vec<Vec3>>,
+    /// The faces as given: each a polygon of 3 or more vertex indices from 0, in the file's
+    /// order and winding.
+    pub faces: std::sync::Arc<Vec<Vec<u32>>>,
+    /// Texture coordinates (`vt`), if the file has any.
+    pub uvs: std::sync::Arc<Vec<[Real; 2]>>,
+    /// Each face's texture-coordinate indices (from 0), corner by corner; empty when the faces
+    /// have none.
+    pub face_uvs: std::sync::Arc<Vec<Vec<u32>>>,
+    /// Rotation about x, then y, then z (R = Rz Ry Rx), degrees. Default (0, 0, 0); each in
+    /// [-1e6, 1e6].
+    pub rotation: Vec3,
+    /// The file's units to metres, applied first. Default 1; range (0, 1e4].
+    pub scale: Real,
+    /// Reverses the faces' winding for the physics (the side the air is on); the outputs keep
+    /// the file's winding. Default false.
+    pub flip_normals: bool,
+}
+
+impl ClothMeshSource {
+    /// The vertices placed in the scene with their origin at `position` (m).
+    pub fn placed(&self, position: Vec3) -> Vec<Vec3> {
+        let r = crate::collide::motion::rotation_matrix(self.rotation);
+        self.vertices
+            .iter()
+            .map(|&v| position + r * (v * self.scale))
+            .collect()
+    }
+
+    /// The physics' triangles: each face as a fan from its first corner, reversed with
+    /// `flip_normals`; with the face each came from.
+    pub fn triangles(&self) -> (Vec<[u32; 3]>, Vec<u32>) {
+        let mut t = Vec::with_capacity(self.faces.iter().map(|f| f.len().saturating_sub(2)).sum());
+        let mut from = Vec::with_capacity(t.capacity());
+        for (i, f) in self.faces.iter().enumerate() {
+            for k in 1..f.len().saturating_sub(1) {
+                let tri = [f[0], f[k], f[k + 1]];
+                t.push(if self.flip_normals {
+                    [tri[0], tri[2], tri[1]]
+                } else {
+                    tri
+                });
+                from.push(i as u32);
+            }
+        }
+        (t, from)
+    }
 }
 
 /// A region of the cloth painted with its own wetness (`[[cloth.paint]]`): a disc (`radius`)
@@ -77,6 +138,10 @@ pub struct WetPaint {
     pub shape: PaintShape,
     /// Wetness inside the region, 0..1. Required.
     pub wetness: Real,
+    /// On a mesh cloth: the region's centre in scene coordinates at t = 0, m (a 3-component
+    /// `center`); the region is then a ball (`radius`) or a box (`half_size`, 3 components).
+    /// `None` on the grid.
+    pub point: Option<Vec3>,
 }
 
 /// The shape of a [`WetPaint`] region.
@@ -86,15 +151,28 @@ pub enum PaintShape {
     Disc(Real),
     /// A box of these half sizes along x and z, m; each in (0, 1e3].
     Box([Real; 2]),
+    /// On a mesh cloth: a box of these half sizes along x, y and z, m; each in (0, 1e3].
+    Cuboid([Real; 3]),
 }
 
 impl WetPaint {
+    /// Whether the point `p` (m, scene coordinates at t = 0) is inside a mesh cloth's region.
+    pub fn contains_point(&self, p: Vec3) -> bool {
+        let d = p - self.point.unwrap_or(Vec3::ZERO);
+        match self.shape {
+            PaintShape::Disc(r) => d.length_squared() <= r * r,
+            PaintShape::Box([hx, hz]) => d.x.abs() <= hx && d.z.abs() <= hz,
+            PaintShape::Cuboid(h) => d.x.abs() <= h[0] && d.y.abs() <= h[1] && d.z.abs() <= h[2],
+        }
+    }
+
     /// Whether the rest point (x, z) (m from the cloth's centre) is inside the region.
     pub fn contains(&self, x: Real, z: Real) -> bool {
         let (dx, dz) = (x - self.center[0], z - self.center[1]);
         match self.shape {
             PaintShape::Disc(r) => dx * dx + dz * dz <= r * r,
             PaintShape::Box([hx, hz]) => dx.abs() <= hx && dz.abs() <= hz,
+            PaintShape::Cuboid([hx, _, hz]) => dx.abs() <= hx && dz.abs() <= hz,
         }
     }
 }
@@ -119,6 +197,7 @@ impl Default for ClothParams {
             water_mass: 0.0,
             dry_friction_factor: 1.0,
             wet_adhesion: 300.0,
+            mesh: None,
         }
     }
 }
@@ -129,9 +208,12 @@ impl ClothParams {
         0.5 * (self.thickness + self.collision_margin)
     }
 
-    /// Number of particles.
+    /// Number of particles: the grid's, or the mesh's vertices.
     pub fn particle_count(&self) -> usize {
-        self.resolution[0] * self.resolution[1]
+        match &self.mesh {
+            Some(m) => m.vertices.len(),
+            None => self.resolution[0] * self.resolution[1],
+        }
     }
 
     /// Wetness at the rest point (x, z) (m from the cloth's centre): the last paint region that
@@ -142,6 +224,16 @@ impl ClothParams {
             .rev()
             .find(|p| p.contains(x, z))
             .map_or(self.wetness, |p| p.wetness)
+    }
+
+    /// Wetness of a mesh cloth at the point `p` (m, scene coordinates at t = 0): the last paint
+    /// region that holds it, else `wetness`.
+    pub fn wetness_at_point(&self, p: Vec3) -> Real {
+        self.paint
+            .iter()
+            .rev()
+            .find(|r| r.contains_point(p))
+            .map_or(self.wetness, |r| r.wetness)
     }
 
     /// Whether the cloth is equally wet everywhere.

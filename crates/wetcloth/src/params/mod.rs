@@ -21,7 +21,7 @@ mod simulation;
 mod stability;
 
 pub use air::{AirModelKind, AirParams, PocketSeed, PressureForce, PressureSolve};
-pub use cloth::{ClothParams, PaintShape, WetPaint};
+pub use cloth::{ClothMeshSource, ClothParams, PaintShape, WetPaint};
 pub use simulation::{Integrator, SimulationParams, SolveBudget};
 
 use crate::collide::Collider;
@@ -166,13 +166,55 @@ impl SimConfig {
             check_range(&key("center"), p.center[0], -1e3, 1e3)?;
             check_range(&key("center"), p.center[1], -1e3, 1e3)?;
             check_range(&key("wetness"), p.wetness, 0.0, 1.0)?;
+            if let Some(point) = p.point {
+                check_vec(&key("center"), point, -1e4, 1e4)?;
+            }
             match p.shape {
                 PaintShape::Disc(r) => check_open_low(&key("radius"), r, 0.0, 1e3)?,
                 PaintShape::Box(h) => {
                     check_open_low(&key("half_size"), h[0], 0.0, 1e3)?;
                     check_open_low(&key("half_size"), h[1], 0.0, 1e3)?;
                 }
+                PaintShape::Cuboid(h) => {
+                    for v in h {
+                        check_open_low(&key("half_size"), v, 0.0, 1e3)?;
+                    }
+                }
             }
+        }
+        if let Some(m) = &c.mesh {
+            // What the general path does not take yet, refused rather than run wrong.
+            if self.simulation.integrator == Integrator::Implicit {
+                return Err(ConfigError::Invalid {
+                    key: "simulation.integrator".into(),
+                    message: "a mesh cloth (`[cloth] mesh`) runs with integrator = \"verlet\"; \
+                              the implicit integrator takes the built-in grid only"
+                        .into(),
+                });
+            }
+            if self.air.model == AirModelKind::Pockets {
+                return Err(ConfigError::Invalid {
+                    key: "air.model".into(),
+                    message: "a mesh cloth (`[cloth] mesh`) takes the thesis' air model; the \
+                              pockets model takes the built-in grid only"
+                        .into(),
+                });
+            }
+            check_vec("cloth.rotation", m.rotation, -1e6, 1e6)?;
+            check_open_low("cloth.scale", m.scale, 0.0, 1e4)?;
+            let (triangles, from) = m.triangles();
+            crate::model::ClothMesh::new(m.placed(c.position), triangles).map_err(|e| {
+                let face = e
+                    .triangle()
+                    .and_then(|t| from.get(t))
+                    .map_or(String::new(), |f| {
+                        format!(" (face {} counting from 1)", f + 1)
+                    });
+                ConfigError::Invalid {
+                    key: "cloth.mesh".into(),
+                    message: format!("{}{face}: {e}", m.file),
+                }
+            })?;
         }
 
         let a = &self.air;

@@ -175,7 +175,7 @@ pub(crate) struct Implicit {
 impl Implicit {
     /// Scratch for the particles of `model`, solving each step to `budget`.
     pub fn new(model: &Model, budget: SolveBudget) -> Self {
-        let n = model.grid.len();
+        let n = model.grid().len();
         Self {
             springs: Stencil {
                 right: SpringSet::new(n),
@@ -183,7 +183,7 @@ impl Implicit {
                 diag: SpringSet::new(n),
                 anti: SpringSet::new(n),
             },
-            runs: spans(model.grid.nx, model.grid.nz).collect(),
+            runs: spans(model.grid().nx, model.grid().nz).collect(),
             force: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
             landed: vec![false; n],
@@ -273,8 +273,8 @@ impl Implicit {
         // `System` borrows the regions; the rest of `self` is used mutably below.
         let regions = std::mem::take(&mut self.regions);
         let sys = System {
-            nx: model.grid.nx,
-            nz: model.grid.nz,
+            nx: model.grid().nx,
+            nz: model.grid().nz,
             dt2: dt * dt,
             regions: &regions,
         };
@@ -301,7 +301,7 @@ impl Implicit {
         self.air
             .finish(air.model, control.air_enabled, &self.regions, volume_change);
         fused.measures.remeasure_all(
-            &model.grid,
+            model.grid(),
             &state.x,
             model.sticking,
             model.radius,
@@ -728,11 +728,11 @@ mod tests {
         cfg.cloth.strain_limit = 0.1;
         let model = Model::new(&cfg);
         let mut imp = Implicit::new(&model, SolveBudget::Converged);
-        let x = model.grid.rest_positions(Vec3::ZERO);
+        let x = model.grid().rest_positions(Vec3::ZERO);
         imp.forces(&model, &x);
         let soft = (imp.springs.right.ks[0], imp.springs.right.kd[0]);
         // Particles 0 and 1 (the first `right` spring) pulled apart at 0.3 rest lengths a step.
-        let l = model.grid.rest_distance(0, 1);
+        let l = model.grid().rest_distance(0, 1);
         let dt = 1.0 / 600.0;
         imp.v = Soa::zeros(x.len());
         imp.v.set(0, Vec3::new(-0.15 * l / dt, 0.0, 0.0));

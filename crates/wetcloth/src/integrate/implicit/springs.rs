@@ -376,7 +376,7 @@ impl Implicit {
     /// Springs and their linearisation, gravity, damping-free forces and the pressure force per
     /// pascal at the positions `x`.
     pub(super) fn forces(&mut self, model: &Model, x: &Soa) {
-        let (nx, nz) = (model.grid.nx, model.grid.nz);
+        let (nx, nz) = (model.grid().nx, model.grid().nz);
         let c = &model.springs;
         let n = nx * nz;
         for k in 0..n {

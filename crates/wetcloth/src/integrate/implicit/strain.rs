@@ -45,7 +45,7 @@ impl Implicit {
         if model.strain_limit <= 0.0 {
             return false;
         }
-        let (nx, nz) = (model.grid.nx, model.grid.nz);
+        let (nx, nz) = (model.grid().nx, model.grid().nz);
         let c = &model.springs;
         for f in [&mut self.force.x, &mut self.force.y, &mut self.force.z] {
             f.fill(0.0);

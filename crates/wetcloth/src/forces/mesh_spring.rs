@@ -1,0 +1,382 @@
+//! The thesis' springs (eq. 3.6) on a cloth of any shape: one spring along every edge of the
+//! mesh and one across every interior edge (between the two vertices opposite it), with
+//! stiffnesses set so that the network has the in-plane stiffness of the material.
+//!
+//! # The material
+//!
+//! `structural_stiffness` `k_s` and `shear_stiffness` `k_h` (N/m) keep the meaning they have on
+//! the built-in grid, as a membrane: a square grid with those springs has, whatever its spacing,
+//! the in-plane stiffness `C11 = C22 = k_s + k_h`, `C12 = C66 = k_h` (N/m; stress per strain of
+//! the sheet, axes along x and z). A spring of stiffness `k` and rest length `L` stores
+//! `1/2 w (d . eps d)^2` under a small uniform strain `eps` (`w = k L^2`, `d` its unit
+//! direction), so a triangle of area `A` matches the membrane when its springs' `w` sum, as
+//! rank-one tensors `w q q^T` (`q` the Mandel vector `(dx^2, dz^2, sqrt 2 dx dz)`), to `A C`.
+//!
+//! Each spring across an edge takes `w = k_h (A_1 + A_2)` (the two triangles beside the edge),
+//! half of it counted in each triangle; each triangle then sets the `w` of its three edges by
+//! non-negative least squares on the rest of `A C` (Frobenius norm, in the triangle's own frame,
+//! its first axis the world x projected onto it). An edge's stiffness is the sum of its
+//! triangles' shares over `L^2`. A uniform strain of a regular or irregular mesh then stores
+//! the membrane's energy: exactly for an isotropic material (`k_s = 2 k_h`) on equilateral
+//! triangles, and close to it on any mesh whose triangles are not thin.
+//!
+//! What springs cannot do: a network of springs is a membrane with Poisson ratio 1/3
+//! (`C12 = C66`, Cauchy's relation), so no spring stiffness gives a rubbery (0.5) or a paper-like
+//! (0) sheet; an anisotropic material (`k_s != 2 k_h`) is reproduced only as closely as each
+//! triangle's three directions allow; and there is no bending stiffness beyond what the springs
+//! across edges give a folded sheet. Triangle elements (membrane and bending) lift these limits.
+
+use crate::math::{Real, Soa, Vec3};
+use crate::model::ClothMesh;
+
+/// The springs of a mesh cloth.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshSprings {
+    /// The two particles of each spring: first the mesh's edges (in [`ClothMesh::edges`]
+    /// order), then the springs across interior edges.
+    pub ends: Vec<[u32; 2]>,
+    /// Rest length of each spring, m.
+    pub rest: Vec<Real>,
+    /// Stiffness of each spring, N/m.
+    pub stiffness: Vec<Real>,
+    /// How many of `ends` are the mesh's edges (the rest are across edges).
+    pub edge_count: usize,
+    /// The springs of particle `k`: `of[start[k]..start[k + 1]]`, in increasing order.
+    pub start: Vec<u32>,
+    /// See [`MeshSprings::start`].
+    pub of: Vec<u32>,
+}
+
+/// The membrane `C` (Mandel form, N/m) of a grid with springs `k_s`, `k_h`.
+fn membrane(structural: Real, shear: Real) -> [[Real; 3]; 3] {
+    let (c11, c12, c66) = (structural + shear, shear, shear);
+    [[c11, c12, 0.0], [c12, c11, 0.0], [0.0, 0.0, 2.0 * c66]]
+}
+
+/// The Mandel vector of a unit direction `(u, v)`.
+fn mandel(u: Real, v: Real) -> [Real; 3] {
+    [u * u, v * v, std::f64::consts::SQRT_2 * u * v]
+}
+
+fn dot3(a: [Real; 3], b: [Real; 3]) -> Real {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn quad(t: &[[Real; 3]; 3], q: [Real; 3]) -> Real {
+    let mut s = 0.0;
+    for i in 0..3 {
+        for j in 0..3 {
+            s += q[i] * t[i][j] * q[j];
+        }
+    }
+    s
+}
+
+/// Non-negative least squares: the weights `w >= 0` whose `sum w_i q_i q_i^T` is nearest
+/// `target` in the Frobenius norm, over every subset of free weights (three unknowns).
+fn fit(q: [[Real; 3]; 3], target: &[[Real; 3]; 3]) -> [Real; 3] {
+    let g = |i: usize, j: usize| dot3(q[i], q[j]).powi(2);
+    let b = |i: usize| quad(target, q[i]);
+    let residual = |w: [Real; 3]| {
+        let mut r = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                let mut m = target[i][j];
+                for (k, wk) in w.iter().enumerate() {
+                    m -= wk * q[k][i] * q[k][j];
+                }
+                r += m * m;
+            }
+        }
+        r
+    };
+    let mut best = ([0.0; 3], residual([0.0; 3]));
+    for mask in 1u8..8 {
+        let free: Vec<usize> = (0..3).filter(|i| mask & (1 << i) != 0).collect();
+        let n = free.len();
+        // Solve the normal equations of the free weights (Gaussian elimination, n <= 3).
+        let mut a = [[0.0; 4]; 3];
+        for (r, &i) in free.iter().enumerate() {
+            for (c, &j) in free.iter().enumerate() {
+                a[r][c] = g(i, j);
+            }
+            a[r][3] = b(i);
+        }
+        let mut ok = true;
+        for c in 0..n {
+            let p = (c..n)
+                .max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))
+                .unwrap_or(c);
+            a.swap(c, p);
+            if a[c][c].abs() < 1e-300 {
+                ok = false;
+                break;
+            }
+            for r in 0..n {
+                if r != c {
+                    let f = a[r][c] / a[c][c];
+                    for k in c..4 {
+                        a[r][k] -= f * a[c][k];
+                    }
+                }
+            }
+        }
+        if !ok {
+            continue;
+        }
+        let mut w = [0.0; 3];
+        for (r, &i) in free.iter().enumerate() {
+            w[i] = a[r][3] / a[r][r];
+        }
+        if w.iter().any(|&x| x < 0.0) {
+            continue;
+        }
+        let res = residual(w);
+        if res < best.1 {
+            best = (w, res);
+        }
+    }
+    best.0
+}
+
+/// A triangle's own frame: its first axis the world x projected onto its plane (the world z
+/// if x is nearly along its normal), the second the normal crossed with it.
+fn frame(a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) {
+    let n = (b - a).cross(c - a).normalize_or_zero();
+    let mut e1 = Vec3::X - n * n.x;
+    if e1.length_squared() < 0.25 {
+        e1 = Vec3::Z - n * n.z;
+    }
+    let e1 = e1.normalize_or_zero();
+    (e1, n.cross(e1))
+}
+
+impl MeshSprings {
+    /// The springs of `mesh` for a material of grid springs `structural` and `shear` (N/m).
+    pub fn new(mesh: &ClothMesh, structural: Real, shear: Real) -> Self {
+        let c = membrane(structural, shear);
+        let edge_count = mesh.edges.len();
+        let mut ends: Vec<[u32; 2]> = mesh.edges.clone();
+        ends.extend(mesh.across.iter().copied());
+        let p = |i: u32| mesh.rest[i as usize];
+        let rest: Vec<Real> = ends.iter().map(|&[a, b]| (p(b) - p(a)).length()).collect();
+        let mut w = vec![0.0; ends.len()];
+        // Where each edge is in `edges`, and the across spring of each interior edge.
+        let edge_index = |a: u32, b: u32| -> usize {
+            let key = [a.min(b), a.max(b)];
+            mesh.edges.binary_search(&key).unwrap_or(0)
+        };
+        let mut across_of = vec![u32::MAX; edge_count];
+        for (s, &e) in mesh.across_edge.iter().enumerate() {
+            across_of[e as usize] = s as u32;
+        }
+        // The across springs: k_h (A_1 + A_2) each.
+        let mut diamond = vec![0.0; edge_count];
+        for (tri, &area) in mesh.triangles.iter().zip(&mesh.triangle_area) {
+            for e in 0..3 {
+                diamond[edge_index(tri[e], tri[(e + 1) % 3])] += area;
+            }
+        }
+        for (s, &e) in mesh.across_edge.iter().enumerate() {
+            w[edge_count + s] = shear * diamond[e as usize];
+        }
+        for (tri, &area) in mesh.triangles.iter().zip(&mesh.triangle_area) {
+            let [a, b, cc] = tri.map(p);
+            let (e1, e2) = frame(a, b, cc);
+            let dir = |v: Vec3| {
+                let (u, t) = (v.dot(e1), v.dot(e2));
+                let l = u.hypot(t);
+                mandel(u / l, t / l)
+            };
+            let mut target = c.map(|r| r.map(|x| x * area));
+            let mut q = [[0.0; 3]; 3];
+            let mut idx = [0usize; 3];
+            for e in 0..3 {
+                let (i, j) = (tri[e], tri[(e + 1) % 3]);
+                idx[e] = edge_index(i, j);
+                q[e] = dir(p(j) - p(i));
+                let s = across_of[idx[e]];
+                if s != u32::MAX {
+                    let [x, y] = ends[edge_count + s as usize];
+                    let qc = dir(p(y) - p(x));
+                    let half = 0.5 * w[edge_count + s as usize];
+                    for r in 0..3 {
+                        for k in 0..3 {
+                            target[r][k] -= half * qc[r] * qc[k];
+                        }
+                    }
+                }
+            }
+            let share = fit(q, &target);
+            for e in 0..3 {
+                w[idx[e]] += share[e];
+            }
+        }
+        let stiffness = w.iter().zip(&rest).map(|(&w, &l)| w / (l * l)).collect();
+        let n = mesh.len();
+        let mut start = vec![0u32; n + 1];
+        for &[a, b] in &ends {
+            start[a as usize + 1] += 1;
+            start[b as usize + 1] += 1;
+        }
+        for k in 0..n {
+            start[k + 1] += start[k];
+        }
+        let mut fill = start.clone();
+        let mut of = vec![0u32; 2 * ends.len()];
+        for (s, &[a, b]) in ends.iter().enumerate() {
+            for v in [a, b] {
+                of[fill[v as usize] as usize] = s as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Self {
+            ends,
+            rest,
+            stiffness,
+            edge_count,
+            start,
+            of,
+        }
+    }
+
+    /// The springs of particle `k`.
+    #[inline]
+    pub fn springs_of(&self, k: usize) -> &[u32] {
+        &self.of[self.start[k] as usize..self.start[k + 1] as usize]
+    }
+
+    /// Hooke's force of spring `s` on its first particle at positions `x`, N (eq. 3.6).
+    #[inline]
+    pub fn force(&self, x: &Soa, s: usize) -> Vec3 {
+        let [a, b] = self.ends[s];
+        let d = x.get(b as usize) - x.get(a as usize);
+        let l = d.length();
+        if l == 0.0 {
+            return Vec3::ZERO;
+        }
+        d * (self.stiffness[s] * (l - self.rest[s]) / l)
+    }
+
+    /// The springs' force on particle `k`, N, summed in spring order.
+    #[inline]
+    pub fn force_on(&self, x: &Soa, k: usize) -> Vec3 {
+        let mut f = Vec3::ZERO;
+        for &s in self.springs_of(k) {
+            let s = s as usize;
+            let fs = self.force(x, s);
+            f += if self.ends[s][0] as usize == k {
+                fs
+            } else {
+                -fs
+            };
+        }
+        f
+    }
+
+    /// Largest `(length / rest length)^2` of a spring along an edge at positions `x`.
+    pub fn max_stretch2(&self, x: &Soa) -> Real {
+        let mut worst: Real = 0.0;
+        for s in 0..self.edge_count {
+            let [a, b] = self.ends[s];
+            let l2 = (x.get(b as usize) - x.get(a as usize)).length_squared();
+            let r = self.rest[s];
+            // NaN propagates: a non-finite position shows as a NaN stretch.
+            let v = l2 / (r * r);
+            worst = if v > worst || v.is_nan() { v } else { worst };
+        }
+        worst
+    }
+
+    /// The elastic energy stored at positions `x`, J.
+    pub fn energy(&self, x: &Soa) -> Real {
+        (0..self.ends.len())
+            .map(|s| {
+                let [a, b] = self.ends[s];
+                let l = (x.get(b as usize) - x.get(a as usize)).length();
+                0.5 * self.stiffness[s] * (l - self.rest[s]).powi(2)
+            })
+            .sum()
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.ends.capacity() * 8
+            + (self.rest.capacity() + self.stiffness.capacity()) * 8
+            + (self.start.capacity() + self.of.capacity()) * 4
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Energy of the springs under a uniform strain `eps` (xx, zz, xz) of the rest positions,
+    /// per unit area, to first order (small strain), as `1/2 m^T C m`'s `C` read back.
+    fn stored(springs: &MeshSprings, mesh: &ClothMesh, eps: [Real; 3]) -> Real {
+        let mut e = 0.0;
+        for (s, &[a, b]) in springs.ends.iter().enumerate() {
+            let d = mesh.rest[b as usize] - mesh.rest[a as usize];
+            let l = d.length();
+            let (u, v) = (d.x / l, d.z / l);
+            let strain = u * u * eps[0] + v * v * eps[1] + 2.0 * u * v * eps[2];
+            e += 0.5 * springs.stiffness[s] * l * l * strain * strain;
+        }
+        e / mesh.total_area()
+    }
+
+    fn hexagonal(n: usize, h: Real) -> ClothMesh {
+        // Equilateral triangles: rows offset by half a spacing.
+        let dz = h * (3.0 as Real).sqrt() / 2.0;
+        let mut v = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let off = if j % 2 == 1 { 0.5 * h } else { 0.0 };
+                v.push(Vec3::new(i as Real * h + off, 0.0, j as Real * dz));
+            }
+        }
+        let mut t = Vec::new();
+        let id = |i: usize, j: usize| (j * n + i) as u32;
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                if j % 2 == 0 {
+                    t.push([id(i, j), id(i, j + 1), id(i + 1, j)]);
+                    t.push([id(i + 1, j), id(i, j + 1), id(i + 1, j + 1)]);
+                } else {
+                    t.push([id(i, j), id(i, j + 1), id(i + 1, j + 1)]);
+                    t.push([id(i, j), id(i + 1, j + 1), id(i + 1, j)]);
+                }
+            }
+        }
+        ClothMesh::new(v, t).unwrap()
+    }
+
+    /// Far from the border, an equilateral mesh of an isotropic material stores the membrane's
+    /// energy under uniaxial and shear strains (the border's cells lack across springs).
+    #[test]
+    fn equilateral_springs_store_the_membrane_energy() {
+        let (ks, kh) = (200.0, 100.0);
+        let mesh = hexagonal(40, 0.01);
+        let springs = MeshSprings::new(&mesh, ks, kh);
+        let c = membrane(ks, kh);
+        for (eps, want) in [
+            ([1e-3, 0.0, 0.0], 0.5 * c[0][0] * 1e-6),
+            ([0.0, 1e-3, 0.0], 0.5 * c[1][1] * 1e-6),
+            ([0.0, 0.0, 1e-3], 0.5 * c[2][2] * 2e-6),
+        ] {
+            let got = stored(&springs, &mesh, eps);
+            assert!(
+                (got / want - 1.0).abs() < 0.06,
+                "strain {eps:?}: {got} J/m^2 against {want}"
+            );
+        }
+    }
+
+    #[test]
+    fn every_stiffness_is_finite_and_not_negative() {
+        let mesh = hexagonal(6, 0.1);
+        let s = MeshSprings::new(&mesh, 500.0, 125.0);
+        assert!(s.stiffness.iter().all(|k| k.is_finite() && *k >= 0.0));
+        assert_eq!(s.ends.len(), mesh.edges.len() + mesh.across.len());
+    }
+}

@@ -1,0 +1,274 @@
+//! Position Verlet (thesis eq. 3.1) on a cloth of any shape: the general path of
+//! [`super::verlet`], chosen once per step when the cloth is a mesh.
+//!
+//! The same step as the grid's, particle by particle instead of row by row: the forces
+//! (gravity and damping, the mesh's springs, the pressure over each particle's lumped area
+//! along its area-weighted normal), the move, the contacts, then the hand. Each particle's
+//! force is gathered from its own springs in a fixed order (no scattered sums), so the passes
+//! split over threads give the same bits as one thread.
+
+use super::{Air, Fused};
+use crate::air::{AirLoad, Timing};
+use crate::checks;
+use crate::collide::contact;
+use crate::collide::plane;
+use crate::control::Control;
+use crate::forces::gravity;
+use crate::forces::mesh_spring::MeshSprings;
+use crate::math::{Real, RowMut, Soa, Vec3, row};
+use crate::measure::Measures;
+use crate::model::{ClothMesh, Layout, Model};
+use crate::params::PressureForce;
+use crate::state::{Motion, State};
+use rayon::prelude::*;
+
+/// Particles per task when a pass is split over the pool.
+const CHUNK: usize = 2048;
+
+/// Scratch of the mesh path.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct MeshVerlet {
+    /// Force on each particle during the last step (without the hand), N.
+    pub force: Soa,
+    /// The pressure force of the step, N (end-of-step pressure).
+    pressure: Soa,
+    /// The grabbed particles' previous positions, m.
+    saved_prev: Vec<Vec3>,
+    /// The measures of the coasting positions.
+    coast: Measures,
+}
+
+/// Applies `f(k) -> Vec3` to every particle, writing into `out`, on the pool for large cloths.
+fn for_each(out: &mut Soa, parallel: bool, f: impl Fn(usize) -> Vec3 + Sync) {
+    let n = out.len();
+    if parallel && n > CHUNK {
+        let (xs, ys, zs) = (&mut out.x, &mut out.y, &mut out.z);
+        xs.par_chunks_mut(CHUNK)
+            .zip(ys.par_chunks_mut(CHUNK))
+            .zip(zs.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, ((x, y), z))| {
+                for i in 0..x.len() {
+                    let v = f(c * CHUNK + i);
+                    (x[i], y[i], z[i]) = (v.x, v.y, v.z);
+                }
+            });
+    } else {
+        for k in 0..n {
+            let v = f(k);
+            out.set(k, v);
+        }
+    }
+}
+
+/// The pressure force on particle `k` at positions `x` per pascal of `P_b - P_a`, N/Pa: the
+/// thesis' `S N` (lumped area, area-weighted unit normal), or the area vector (a third of
+/// each triangle's vector area around it) by `[air] pressure_force = "area"`.
+#[inline]
+pub(crate) fn pressure_per_pascal(mesh: &ClothMesh, law: PressureForce, x: &Soa, k: usize) -> Vec3 {
+    match law {
+        PressureForce::Thesis => mesh.normal(x, k) * mesh.area[k],
+        PressureForce::Area => {
+            let mut a = Vec3::ZERO;
+            for &t in mesh.triangles_of(k) {
+                a += mesh.triangle_cross(x, t as usize);
+            }
+            a / 6.0
+        }
+    }
+}
+
+impl MeshVerlet {
+    /// Scratch for `n` particles of `layout`.
+    pub fn new(layout: Layout<'_>, n: usize) -> Self {
+        Self {
+            force: Soa::zeros(n),
+            pressure: Soa::zeros(n),
+            saved_prev: Vec::new(),
+            coast: Measures::for_layout(layout, false),
+        }
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.force.heap_bytes()
+            + self.pressure.heap_bytes()
+            + self.saved_prev.capacity() * 24
+            + self.coast.heap_bytes()
+    }
+
+    /// One step of `dt` s on a mesh cloth (see the module docs). Returns the largest squared
+    /// distance (m^2) of a new position from `fused.reference` (0 without one).
+    #[allow(clippy::too_many_arguments)] // the step's parts, as the grid's pass takes them
+    pub fn step(
+        &mut self,
+        model: &Model,
+        mesh: &ClothMesh,
+        springs: &MeshSprings,
+        state: &mut State,
+        control: &mut Control,
+        air: Air<'_>,
+        dt: Real,
+        fused: Fused<'_>,
+    ) -> Real {
+        state.use_previous_positions(dt);
+        let Motion::Previous(prev) = &mut state.motion else {
+            unreachable!("converted above")
+        };
+        let n = mesh.len();
+        let parallel = fused.rows_per_task.is_some() || n >= 4 * CHUNK;
+        self.saved_prev.clear();
+        self.saved_prev
+            .extend(control.grabs.iter().map(|g| prev.get(g.particle)));
+        let first = if state.steps == 0 { 0.5 } else { 1.0 };
+        let dt2 = dt * dt * first;
+        let t = state.steps as Real * dt;
+        let frames: Vec<contact::Frames> = model
+            .moving
+            .iter()
+            .map(|c| contact::Frames::of(c, t, dt))
+            .collect();
+        let x = &state.x;
+        let damping_per_dt = model.damping / dt;
+        let law = model.pressure_force;
+        // Every force but the pressure (gravity and damping, eq. 3.3; springs, eq. 3.6).
+        {
+            let prev: &Soa = prev;
+            for_each(&mut self.force, parallel, |k| {
+                let v = x.get(k) - prev.get(k);
+                gravity::weight_and_damping(model.mass(k), model.gravity, damping_per_dt, v)
+                    + springs.force_on(x, k)
+            });
+        }
+        // The pressure (eq. 3.7): of the step's start, or of its end from the coasting
+        // positions.
+        let load_of = |air: &Air<'_>| -> (Real, Option<Vec<Real>>) {
+            match air.model.load(air.params) {
+                AirLoad::Uniform(p) => (p, None),
+                AirLoad::PerParticle(p) => (1.0, Some(p.to_vec())),
+            }
+        };
+        let pressure_now = |pressure: &mut Soa, p: Real, each: Option<&[Real]>| {
+            for_each(pressure, parallel, |k| {
+                let dp = each.map_or(p, |e| e[k]);
+                if dp == 0.0 {
+                    Vec3::ZERO
+                } else {
+                    pressure_per_pascal(mesh, law, x, k) * dp
+                }
+            });
+        };
+        match air.timing {
+            Timing::Now => {
+                let (p, each) = load_of(&air);
+                pressure_now(&mut self.pressure, p, each.as_deref());
+                for k in 0..n {
+                    let f = self.force.get(k) + self.pressure.get(k);
+                    self.force.set(k, f);
+                    let h = dt2 / model.mass(k);
+                    let (here, before) = (x.get(k), prev.get(k));
+                    prev.set(k, here + (here - before) + f * h);
+                }
+            }
+            Timing::EndOfStep => {
+                for k in 0..n {
+                    let h = dt2 / model.mass(k);
+                    let (here, before) = (x.get(k), prev.get(k));
+                    prev.set(k, here + (here - before) + self.force.get(k) * h);
+                }
+                for (k, target) in control.active() {
+                    prev.set(k, target);
+                }
+                self.coast.keep_cells = fused.measures.keep_cells;
+                self.coast
+                    .remeasure_mesh(model.layout(), prev, model.sticking, model.radius);
+                air.model
+                    .solve_end_of_step(air.params, model, prev, &self.coast, &control.held);
+                let (p, each) = load_of(&air);
+                pressure_now(&mut self.pressure, p, each.as_deref());
+                for k in 0..n {
+                    let fp = self.pressure.get(k);
+                    self.force.set(k, self.force.get(k) + fp);
+                    prev.set(k, prev.get(k) + fp * (dt2 / model.mass(k)));
+                }
+            }
+        }
+        // Contacts (eq. 3.4-3.5) of the moves from `x` to `prev`.
+        let scale = model.friction_scale.as_deref();
+        {
+            let here = row(x, n, 0);
+            let mut next = RowMut {
+                x: &mut prev.x[..],
+                y: &mut prev.y[..],
+                z: &mut prev.z[..],
+            };
+            let contact_flags = &mut state.contact[..];
+            contact_flags.fill(false);
+            for p in &model.planes {
+                plane::contact_row_scaled(p, here, &mut next, contact_flags, scale);
+            }
+        }
+        let mut work = 0.0;
+        if !model.non_planes.is_empty() || !model.moving.is_empty() {
+            for k in 0..n {
+                let now = x.get(k);
+                let mut to = prev.get(k);
+                let f = scale.map_or(1.0, |s| s[k]);
+                if !model.non_planes.is_empty() {
+                    let (moved, hit) =
+                        contact::resolve_scaled(&model.non_planes, now, to, model.radius, f);
+                    to = moved;
+                    state.contact[k] |= hit;
+                }
+                for (col, frames) in model.moving.iter().zip(&frames) {
+                    let (moved, hit, w) = contact::resolve_moving(
+                        col,
+                        frames,
+                        now,
+                        to,
+                        model.radius,
+                        f,
+                        model.mass(k),
+                        dt2,
+                    );
+                    to = moved;
+                    state.contact[k] |= hit;
+                    work += w.abs();
+                }
+                prev.set(k, to);
+            }
+        }
+        control.collider_work += (work * 1e12).round() * 1e-12;
+        let p = prev;
+        std::mem::swap(&mut state.x, p);
+        // The hand (thesis 3.2 step 3).
+        let mut hand = 0.0;
+        for (g, (target, before)) in control
+            .grabs
+            .iter_mut()
+            .zip(control.targets.iter().zip(&self.saved_prev))
+        {
+            let k = g.particle;
+            match target {
+                Some(target) => {
+                    let accel = (*target - 2.0 * p.get(k) + *before) * (model.mass(k) / (dt * dt));
+                    g.force = accel - self.force.get(k);
+                    hand += checks::work(g.force, p.get(k), *target).abs();
+                    state.x.set(k, *target);
+                }
+                None => g.force = Vec3::ZERO,
+            }
+        }
+        control.hand_work += hand;
+        fused
+            .measures
+            .remeasure_mesh(model.layout(), &state.x, model.sticking, model.radius);
+        match fused.reference {
+            Some(reference) => (0..n)
+                .filter(|&k| !control.held[k])
+                .map(|k| (state.x.get(k) - reference.get(k)).length_squared())
+                .fold(0.0, Real::max),
+            None => 0.0,
+        }
+    }
+}
