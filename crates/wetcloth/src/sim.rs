@@ -746,8 +746,10 @@ impl Simulation {
         // limit), where the contacts' friction answers the pull: a projection after it would
         // slide particles the friction holds.
         let cloth = &self.config.cloth;
+        // A mesh cloth's implicit step has no limit inside its solve: it is limited here too.
         if cloth.strain_limit > 0.0
-            && self.config.simulation.integrator == crate::params::Integrator::Verlet
+            && (self.config.simulation.integrator == crate::params::Integrator::Verlet
+                || model.mesh.is_some())
         {
             corrected |= strain_limit::limit_strain(
                 model.layout(),

@@ -120,6 +120,11 @@ impl Bubble {
         }
     }
 
+    /// The pending end-of-step solve, taken (the integrator solves it itself).
+    pub(crate) fn take_end_of_step(&mut self) -> Option<EndOfStep> {
+        self.pending.take()
+    }
+
     /// Phase 4: air leaking in (or out) where the border is lifted off the surface at the
     /// step's end (positions `x`, [`leak::open_border_length`]), with the volume of the step's
     /// start: the amount relaxed exactly towards atmospheric pressure ([`leak::relax`]), never
@@ -213,10 +218,12 @@ impl EndOfStep {
         // are pushed back out (adding their depth to the volume) and have no gap.
         let mut base = coast_volume;
         let gap = |i: usize| up.x * coast.x[i] + up.y * coast.y[i] + up.z * coast.z[i] - contact;
+        // Each particle's area S: the uniform one on the grid, its lumped area on a mesh.
+        let s_of = |i: usize| model.areas.as_ref().map_or(s, |a| a[i]);
         for i in 0..coast.len() {
             let g = gap(i);
             if g < 0.0 && !held[i] {
-                base -= s * g;
+                base -= s_of(i) * g;
             }
         }
         // The move per pascal of particle i, m/Pa.
@@ -232,7 +239,7 @@ impl EndOfStep {
                 if held[i] {
                     continue;
                 }
-                let h = h_of(i);
+                let (h, s) = (h_of(i), s_of(i));
                 let push = h * s * (p - pa);
                 let g = gap(i).max(0.0);
                 if push >= 0.0 || -push < g {

@@ -241,6 +241,24 @@ impl AirModel {
         }
     }
 
+    /// For an integrator that solves the end-of-step pressure itself (the mesh's implicit
+    /// step): the thesis bubble's pending solve, taken; `None` for the pockets model or when the
+    /// pressure is known now.
+    pub(crate) fn take_end_of_step(&mut self) -> Option<bubble::EndOfStep> {
+        match self {
+            AirModel::Thesis(b) => b.take_end_of_step(),
+            AirModel::Pockets(_) => None,
+        }
+    }
+
+    /// Records the bubble pressure (Pa) the step applied (the thesis' bubble; see
+    /// [`AirModel::take_end_of_step`]).
+    pub(crate) fn set_applied_pressure(&mut self, pressure: Real) {
+        if let AirModel::Thesis(b) = self {
+            b.applied_pressure = pressure;
+        }
+    }
+
     /// Phase 4: air through the border lifted at the step's end (positions `x`; the thesis'
     /// bubble).
     pub(crate) fn leak(

@@ -16,7 +16,9 @@
 //! name) and of `IntegratorState`; it must pass the scenario table of `tests/physics.rs`.
 
 pub(crate) mod implicit;
+pub(crate) mod implicit_mesh;
 pub(crate) mod multigrid;
+pub(crate) mod sparse;
 pub(crate) mod verlet;
 pub(crate) mod verlet_mesh;
 
@@ -63,6 +65,8 @@ pub(crate) enum IntegratorState {
     Verlet(verlet::Verlet),
     /// Backward Euler with a conjugate gradient.
     Implicit(Box<implicit::Implicit>),
+    /// Backward Euler on a mesh cloth (block-sparse matrix, aggregation multigrid).
+    ImplicitMesh(Box<implicit_mesh::ImplicitMesh>),
 }
 
 impl IntegratorState {
@@ -70,6 +74,9 @@ impl IntegratorState {
     pub fn new(kind: Integrator, budget: SolveBudget, model: &Model) -> Self {
         match kind {
             Integrator::Verlet => IntegratorState::Verlet(verlet::Verlet::new(model)),
+            Integrator::Implicit if model.mesh.is_some() => IntegratorState::ImplicitMesh(
+                Box::new(implicit_mesh::ImplicitMesh::new(model, budget)),
+            ),
             Integrator::Implicit => {
                 IntegratorState::Implicit(Box::new(implicit::Implicit::new(model, budget)))
             }
@@ -90,6 +97,12 @@ impl IntegratorState {
         match self {
             IntegratorState::Verlet(v) => v.step(model, state, control, air, dt, fused),
             IntegratorState::Implicit(i) => i.step(model, state, control, air, dt, fused),
+            IntegratorState::ImplicitMesh(i) => {
+                let crate::model::Layout::Mesh(mesh, springs) = model.layout() else {
+                    unreachable!("built for a mesh cloth")
+                };
+                i.step(model, mesh, springs, state, control, air, dt, fused)
+            }
         }
     }
 
@@ -98,6 +111,7 @@ impl IntegratorState {
         match self {
             IntegratorState::Verlet(_) => 0,
             IntegratorState::Implicit(i) => i.total_iterations,
+            IntegratorState::ImplicitMesh(i) => i.total_iterations,
         }
     }
 
@@ -106,6 +120,7 @@ impl IntegratorState {
         match self {
             IntegratorState::Verlet(v) => v.heap_bytes(),
             IntegratorState::Implicit(i) => i.heap_bytes(),
+            IntegratorState::ImplicitMesh(i) => i.heap_bytes(),
         }
     }
 }

@@ -78,6 +78,66 @@ pub(crate) fn pressure_per_pascal(mesh: &ClothMesh, law: PressureForce, x: &Soa,
     }
 }
 
+/// The contacts (eq. 3.4-3.5: normal force and Coulomb friction, planes on the vectorised row,
+/// other shapes and moving ones particle by particle) of the moves from `x` to `next`, which
+/// they correct; `contact` flags the particles that touched. Returns the moving colliders'
+/// work on the cloth (magnitudes summed, J; `dt2` the step's `dt^2`, halved on a Taylor start).
+pub(crate) fn resolve_contacts(
+    model: &Model,
+    x: &Soa,
+    next: &mut Soa,
+    contact: &mut [bool],
+    frames: &[contact::Frames],
+    dt2: Real,
+) -> Real {
+    let n = x.len();
+    let scale = model.friction_scale.as_deref();
+    {
+        let here = row(x, n, 0);
+        let mut to = RowMut {
+            x: &mut next.x[..],
+            y: &mut next.y[..],
+            z: &mut next.z[..],
+        };
+        contact.fill(false);
+        for p in &model.planes {
+            plane::contact_row_scaled(p, here, &mut to, contact, scale);
+        }
+    }
+    let mut work = 0.0;
+    if !model.non_planes.is_empty() || !model.moving.is_empty() {
+        for k in 0..n {
+            let now = x.get(k);
+            let mut to = next.get(k);
+            let f = scale.map_or(1.0, |s| s[k]);
+            if !model.non_planes.is_empty() {
+                let (moved, hit) =
+                    contact::resolve_scaled(&model.non_planes, now, to, model.radius, f);
+                to = moved;
+                contact[k] |= hit;
+            }
+            for (col, frames) in model.moving.iter().zip(frames) {
+                let (moved, hit, w) = contact::resolve_moving(
+                    col,
+                    frames,
+                    now,
+                    to,
+                    model.radius,
+                    f,
+                    model.mass(k),
+                    dt2,
+                );
+                to = moved;
+                contact[k] |= hit;
+                work += w.abs();
+            }
+            next.set(k, to);
+        }
+    }
+    // Rounded to the picojoule, as the grid's pass sums it.
+    (work * 1e12).round() * 1e-12
+}
+
 impl MeshVerlet {
     /// Scratch for `n` particles of `layout`.
     pub fn new(layout: Layout<'_>, n: usize) -> Self {
@@ -194,51 +254,7 @@ impl MeshVerlet {
             }
         }
         // Contacts (eq. 3.4-3.5) of the moves from `x` to `prev`.
-        let scale = model.friction_scale.as_deref();
-        {
-            let here = row(x, n, 0);
-            let mut next = RowMut {
-                x: &mut prev.x[..],
-                y: &mut prev.y[..],
-                z: &mut prev.z[..],
-            };
-            let contact_flags = &mut state.contact[..];
-            contact_flags.fill(false);
-            for p in &model.planes {
-                plane::contact_row_scaled(p, here, &mut next, contact_flags, scale);
-            }
-        }
-        let mut work = 0.0;
-        if !model.non_planes.is_empty() || !model.moving.is_empty() {
-            for k in 0..n {
-                let now = x.get(k);
-                let mut to = prev.get(k);
-                let f = scale.map_or(1.0, |s| s[k]);
-                if !model.non_planes.is_empty() {
-                    let (moved, hit) =
-                        contact::resolve_scaled(&model.non_planes, now, to, model.radius, f);
-                    to = moved;
-                    state.contact[k] |= hit;
-                }
-                for (col, frames) in model.moving.iter().zip(&frames) {
-                    let (moved, hit, w) = contact::resolve_moving(
-                        col,
-                        frames,
-                        now,
-                        to,
-                        model.radius,
-                        f,
-                        model.mass(k),
-                        dt2,
-                    );
-                    to = moved;
-                    state.contact[k] |= hit;
-                    work += w.abs();
-                }
-                prev.set(k, to);
-            }
-        }
-        control.collider_work += (work * 1e12).round() * 1e-12;
+        control.collider_work += resolve_contacts(model, x, prev, &mut state.contact, &frames, dt2);
         let p = prev;
         std::mem::swap(&mut state.x, p);
         // The hand (thesis 3.2 step 3).

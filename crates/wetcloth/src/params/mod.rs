@@ -184,14 +184,6 @@ impl SimConfig {
         }
         if let Some(m) = &c.mesh {
             // What the general path does not take yet, refused rather than run wrong.
-            if self.simulation.integrator == Integrator::Implicit {
-                return Err(ConfigError::Invalid {
-                    key: "simulation.integrator".into(),
-                    message: "a mesh cloth (`[cloth] mesh`) runs with integrator = \"verlet\"; \
-                              the implicit integrator takes the built-in grid only"
-                        .into(),
-                });
-            }
             if self.air.model == AirModelKind::Pockets {
                 return Err(ConfigError::Invalid {
                     key: "air.model".into(),

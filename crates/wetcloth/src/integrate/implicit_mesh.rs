@@ -1,0 +1,371 @@
+//! Backward Euler on a cloth of any shape: the implicit integrator's general path, chosen
+//! once per step when the cloth is a mesh (the grid keeps `implicit/`, with its stencil
+//! matrix, geometric multigrid and friction inside the solve).
+//!
+//! One linearised step (Baraff and Witkin): with `H` the springs' stiffness (each spring's
+//! `k (1 - L / l) (I - d d^T) + k d d^T`, its first term dropped while the spring is shorter
+//! than its rest length, so `H` is positive semi-definite) the new velocity solves
+//!
+//! `(M (1 + dt c) + dt^2 H) v+ = M v + dt f(x)`
+//!
+//! (`c` the damping rate, `f` gravity, springs and the pressure), assembled in a block-sparse
+//! matrix ([`super::sparse::BlockCsr`]) and solved by a preconditioned conjugate gradient
+//! (block-Jacobi, or aggregation multigrid on the vertex graph; `[simulation]
+//! implicit_budget` sets the tolerance). Hands fix their particles' velocities (their rows are
+//! filtered out of the solve); their force is the residual of their rows.
+//!
+//! The thesis' bubble with its end-of-step pressure (eq. 3.8-3.9 at `t + dt`): the pressure
+//! force is linear in the pressure difference `dP`, so the step solves twice, `v_f` without it
+//! and `w` per pascal (`A w = dt S N`), and `v+ = v_f + dP w`; Boyle's law on the volume this
+//! predicts (each particle moving by `dt (v_f + dP w)` along the plane's normal, capped at the
+//! surface as for the explicit integrator) gives `dP` ([`crate::air::bubble::solve_boyle`]). The
+//! trapped air is then a spring solved with the cloth, stable at large steps.
+//!
+//! Contacts: the move `x -> x + dt v+` is corrected by the colliders as in the explicit step
+//! (eq. 3.4-3.5, normal force and Coulomb friction on the move), and the velocity is what the
+//! corrected move implies.
+
+use super::sparse::{BlockCsr, Preconditioner, pcg};
+use super::verlet_mesh::{pressure_per_pascal, resolve_contacts};
+use super::{Air, Fused};
+use crate::air::{AirLoad, Timing};
+use crate::checks;
+use crate::collide::contact;
+use crate::control::Control;
+use crate::forces::gravity;
+use crate::forces::mesh_spring::MeshSprings;
+use crate::math::{Real, Soa, Vec3};
+use crate::model::{ClothMesh, Layout, Model};
+use crate::params::SolveBudget;
+use crate::state::{Motion, State};
+use glam::DMat3;
+
+/// Scratch of the mesh's implicit step.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ImplicitMesh {
+    /// The system matrix.
+    a: BlockCsr,
+    /// For each spring, where its blocks `(a, b)` and `(b, a)` are in `a.val`.
+    slots: Vec<[u32; 2]>,
+    pre: Preconditioner,
+    budget: Option<SolveBudget>,
+    rhs: Soa,
+    v: Soa,
+    w: Soa,
+    per_pascal: Soa,
+    force: Soa,
+    fixed: Vec<bool>,
+    /// CG iterations over every step.
+    pub total_iterations: u64,
+}
+
+/// Relative residual of the converged budget's solves.
+const TOLERANCE_CONVERGED: Real = 1e-8;
+/// Relative residual of the interactive budget's solves.
+const TOLERANCE_INTERACTIVE: Real = 1e-3;
+/// Most CG iterations of one solve.
+const MAX_ITERATIONS: usize = 2000;
+
+impl ImplicitMesh {
+    /// Scratch for `model`'s mesh.
+    pub fn new(model: &Model, budget: SolveBudget) -> Self {
+        let Layout::Mesh(_, springs) = model.layout() else {
+            return Self::default();
+        };
+        let n = model.len();
+        let a = BlockCsr::pattern(n, springs.ends.iter().copied());
+        let slots = springs
+            .ends
+            .iter()
+            .map(|&[p, q]| {
+                let (p, q) = (p as usize, q as usize);
+                [
+                    a.find(p, q).unwrap_or(0) as u32,
+                    a.find(q, p).unwrap_or(0) as u32,
+                ]
+            })
+            .collect();
+        Self {
+            a,
+            slots,
+            pre: Preconditioner::default(),
+            budget: Some(budget),
+            rhs: Soa::zeros(n),
+            v: Soa::zeros(n),
+            w: Soa::zeros(n),
+            per_pascal: Soa::zeros(n),
+            force: Soa::zeros(n),
+            fixed: vec![false; n],
+            total_iterations: 0,
+        }
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.a.heap_bytes()
+            + self.slots.capacity() * 8
+            + self.pre.heap_bytes()
+            + [&self.rhs, &self.v, &self.w, &self.per_pascal, &self.force]
+                .iter()
+                .map(|s| s.heap_bytes())
+                .sum::<usize>()
+            + self.fixed.capacity()
+    }
+
+    /// Assembles `M (1 + dt c) + dt^2 H` at positions `x`.
+    fn assemble(&mut self, model: &Model, springs: &MeshSprings, x: &Soa, dt: Real) {
+        for v in &mut self.a.val {
+            *v = DMat3::ZERO;
+        }
+        let dt2 = dt * dt;
+        for (s, &[p, q]) in springs.ends.iter().enumerate() {
+            let d = x.get(q as usize) - x.get(p as usize);
+            let l = d.length();
+            if l == 0.0 {
+                continue;
+            }
+            let u = d / l;
+            let k = springs.stiffness[s];
+            let outer = DMat3::from_cols(u * u.x, u * u.y, u * u.z);
+            let bend = (1.0 - springs.rest[s] / l).max(0.0);
+            let h = (outer * k + (DMat3::IDENTITY - outer) * (k * bend)) * dt2;
+            let [pq, qp] = self.slots[s];
+            self.a.val[pq as usize] -= h;
+            self.a.val[qp as usize] -= h;
+            self.a.val[self.a.diag[p as usize] as usize] += h;
+            self.a.val[self.a.diag[q as usize] as usize] += h;
+        }
+        let damp = 1.0 + dt * model.damping;
+        for k in 0..model.len() {
+            let slot = self.a.diag[k] as usize;
+            self.a.val[slot] += DMat3::from_diagonal(Vec3::splat(model.mass(k) * damp));
+        }
+    }
+
+    /// One step of `dt` s on a mesh cloth. Returns the largest squared distance (m^2) of a new
+    /// position from `fused.reference`.
+    #[allow(clippy::too_many_arguments)] // the step's parts, as the grid's takes them
+    pub fn step(
+        &mut self,
+        model: &Model,
+        mesh: &ClothMesh,
+        springs: &MeshSprings,
+        state: &mut State,
+        control: &mut Control,
+        air: Air<'_>,
+        dt: Real,
+        fused: Fused<'_>,
+    ) -> Real {
+        state.use_previous_positions(dt);
+        let Motion::Previous(prev) = &mut state.motion else {
+            unreachable!("converted above")
+        };
+        let n = model.len();
+        let parallel = fused.rows_per_task.is_some();
+        let x = &state.x;
+        let law = model.pressure_force;
+        // Forces at the step's start: gravity, springs (damping is in the matrix).
+        for k in 0..n {
+            let f = gravity::weight_and_damping(model.mass(k), model.gravity, 0.0, Vec3::ZERO)
+                + springs.force_on(x, k);
+            self.force.set(k, f);
+            self.per_pascal.set(k, pressure_per_pascal(mesh, law, x, k));
+        }
+        let pressure_now = match air.timing {
+            Timing::Now => match air.model.load(air.params) {
+                AirLoad::Uniform(p) => Some(p),
+                AirLoad::PerParticle(_) => Some(0.0),
+            },
+            Timing::EndOfStep => None,
+        };
+        if let Some(dp) = pressure_now.filter(|&dp| dp != 0.0) {
+            for k in 0..n {
+                self.force
+                    .set(k, self.force.get(k) + self.per_pascal.get(k) * dp);
+            }
+        }
+        self.assemble(model, springs, x, dt);
+        // Hands: their particles' velocities are known.
+        self.fixed.fill(false);
+        for (k, target) in control.active() {
+            self.fixed[k] = true;
+            self.v.set(k, (target - x.get(k)) / dt);
+        }
+        // The right-hand side M v + dt f, with the known velocities' columns moved over.
+        for k in 0..n {
+            let v0 = (x.get(k) - prev.get(k)) / dt;
+            self.rhs.set(k, v0 * model.mass(k) + self.force.get(k) * dt);
+            if !self.fixed[k] {
+                self.v.set(k, v0);
+            }
+        }
+        let known = self.fixed.iter().any(|&f| f);
+        if known {
+            for k in 0..n {
+                if self.fixed[k] {
+                    continue;
+                }
+                let mut c = Vec3::ZERO;
+                for s in self.a.start[k] as usize..self.a.start[k + 1] as usize {
+                    let j = self.a.col[s] as usize;
+                    if self.fixed[j] {
+                        c += self.a.val[s] * self.v.get(j);
+                    }
+                }
+                self.rhs.set(k, self.rhs.get(k) - c);
+            }
+        }
+        let budget = self.budget.unwrap_or_default();
+        let tolerance = match budget {
+            SolveBudget::Converged => TOLERANCE_CONVERGED,
+            SolveBudget::Interactive => TOLERANCE_INTERACTIVE,
+        };
+        self.pre.build(&self.a, &self.fixed, true);
+        // The solve sees the known velocities as fixed; their columns are in the rhs, so the
+        // product is of the free unknowns only.
+        let mut free_v = self.v.clone();
+        for k in 0..n {
+            if self.fixed[k] {
+                free_v.set(k, Vec3::ZERO);
+            }
+        }
+        let iters = pcg(
+            &self.a,
+            &mut self.pre,
+            &self.rhs,
+            &mut free_v,
+            &self.fixed,
+            tolerance,
+            MAX_ITERATIONS,
+            parallel,
+        );
+        self.total_iterations += iters as u64;
+        for k in 0..n {
+            if !self.fixed[k] {
+                self.v.set(k, free_v.get(k));
+            }
+        }
+        // The end-of-step pressure: the response per pascal, then Boyle on the predicted volume.
+        if pressure_now.is_none()
+            && let Some(solve) = air.model.take_end_of_step()
+        {
+            let mut rhs_p = Soa::zeros(n);
+            for k in 0..n {
+                if !self.fixed[k] {
+                    rhs_p.set(k, self.per_pascal.get(k) * dt);
+                }
+            }
+            self.w = Soa::zeros(n);
+            let iters = pcg(
+                &self.a,
+                &mut self.pre,
+                &rhs_p,
+                &mut self.w,
+                &self.fixed,
+                tolerance,
+                MAX_ITERATIONS,
+                parallel,
+            );
+            self.total_iterations += iters as u64;
+            let dp = match model.sticking {
+                Some(plane) => {
+                    let up = plane.up;
+                    let contact = up.dot(plane.point) + model.radius;
+                    let mut coast = x.clone();
+                    for k in 0..n {
+                        coast.set(k, x.get(k) + self.v.get(k) * dt);
+                    }
+                    let mut measures = crate::measure::Measures::for_layout(model.layout(), false);
+                    measures.remeasure_mesh(model.layout(), &coast, model.sticking, model.radius);
+                    // Each free particle ends `g_k + r_k dP` above contact (its coasting gap
+                    // plus its move per pascal along the normal), or on the surface if that is
+                    // below it: the volume is the coasting one plus the area times the change.
+                    let base = measures.totals().volume;
+                    let gap = |k: usize| up.dot(coast.get(k)) - contact;
+                    let pa = solve.atmosphere;
+                    let volume = |p: Real| {
+                        let (mut v, mut slope) = (base, 0.0);
+                        for k in 0..n {
+                            if self.fixed[k] {
+                                continue;
+                            }
+                            let rate = dt * up.dot(self.w.get(k));
+                            let g = gap(k);
+                            let end = g + rate * (p - pa);
+                            if end > 0.0 {
+                                v += mesh.area[k] * (end - g);
+                                slope += mesh.area[k] * rate;
+                            } else {
+                                v -= mesh.area[k] * g;
+                            }
+                        }
+                        (v, slope)
+                    };
+                    crate::air::bubble::solve_boyle(solve.trapped, pa, solve.start, volume) - pa
+                }
+                None => solve.start - solve.atmosphere,
+            };
+            air.model.set_applied_pressure(solve.atmosphere + dp);
+            for k in 0..n {
+                if !self.fixed[k] {
+                    self.v.set(k, self.v.get(k) + self.w.get(k) * dp);
+                }
+                self.force
+                    .set(k, self.force.get(k) + self.per_pascal.get(k) * dp);
+            }
+        }
+        // The hands' forces: the residual of their rows.
+        let mut work = 0.0;
+        for (g, target) in control.grabs.iter_mut().zip(&control.targets) {
+            let k = g.particle;
+            match target {
+                Some(target) => {
+                    let v0 = (x.get(k) - prev.get(k)) / dt;
+                    let mut av = Vec3::ZERO;
+                    for s in self.a.start[k] as usize..self.a.start[k + 1] as usize {
+                        av += self.a.val[s] * self.v.get(self.a.col[s] as usize);
+                    }
+                    let rhs = v0 * model.mass(k) + self.force.get(k) * dt;
+                    g.force = (av - rhs) / dt;
+                    work += checks::work(g.force, x.get(k), *target).abs();
+                }
+                None => g.force = Vec3::ZERO,
+            }
+        }
+        control.hand_work += work;
+        // The move, corrected by the contacts.
+        let t = fused.start;
+        let frames: Vec<contact::Frames> = model
+            .moving
+            .iter()
+            .map(|c| contact::Frames::of(c, t, dt))
+            .collect();
+        let mut next = Soa::zeros(n);
+        for k in 0..n {
+            next.set(k, x.get(k) + self.v.get(k) * dt);
+        }
+        control.collider_work +=
+            resolve_contacts(model, x, &mut next, &mut state.contact, &frames, dt * dt);
+        for (k, target) in control.active() {
+            next.set(k, target);
+        }
+        for k in 0..n {
+            let v0 = (x.get(k) - prev.get(k)) / dt;
+            state
+                .acceleration
+                .set(k, ((next.get(k) - x.get(k)) / dt - v0) / dt);
+        }
+        prev.clone_from(&state.x);
+        state.x = next;
+        fused
+            .measures
+            .remeasure_mesh(model.layout(), &state.x, model.sticking, model.radius);
+        match fused.reference {
+            Some(reference) => (0..n)
+                .filter(|&k| !control.held[k])
+                .map(|k| (state.x.get(k) - reference.get(k)).length_squared())
+                .fold(0.0, Real::max),
+            None => 0.0,
+        }
+    }
+}
