@@ -7,7 +7,6 @@
 //! order, and rows are summed in row order, so the result does not depend on threads.
 
 use crate::air::gap::cell_volume6;
-use crate::air::gap::prism_volume;
 use crate::collide::StickingPlane;
 use crate::math::{Real, RowRef, Soa, Vec3, row};
 use crate::model::{Grid, Layout};
@@ -160,16 +159,24 @@ pub(crate) fn mesh_cells(
         return CellMeasures::default();
     };
     let (origin, up) = plane.map_or((Vec3::ZERO, Vec3::Y), |p| (p.point, p.up));
-    let h = |k: usize| (x.get(k) - origin).dot(up) - offset;
     let mut volume = 0.0;
     let mut out = cell_volumes;
-    for (t, &[a, b, c]) in mesh.triangles.iter().enumerate() {
-        let (a, b, c) = (a as usize, b as usize, c as usize);
-        let v = prism_volume(x.get(a), x.get(b), x.get(c), h(a), h(b), h(c), up);
-        if let Some(o) = out.as_deref_mut() {
-            o[t] = v;
+    if plane.is_some() {
+        // Each particle's height once, then each triangle's prism (eq. 3.10).
+        let h0 = up.dot(origin) + offset;
+        let heights: Vec<Real> = (0..x.len())
+            .map(|k| up.x * x.x[k] + up.y * x.y[k] + up.z * x.z[k] - h0)
+            .collect();
+        for (t, &[a, b, c]) in mesh.triangles.iter().enumerate() {
+            let (a, b, c) = (a as usize, b as usize, c as usize);
+            let (pa, pb, pc) = (x.get(a), x.get(b), x.get(c));
+            let v = 0.5 * up.dot((pb - pa).cross(pc - pa)) * (heights[a] + heights[b] + heights[c])
+                / 3.0;
+            if let Some(o) = out.as_deref_mut() {
+                o[t] = v;
+            }
+            volume += v;
         }
-        volume += v;
     }
     let mut probe: Real = 0.0;
     for k in 0..x.len() {

@@ -41,11 +41,15 @@ pub struct MeshSprings {
     pub stiffness: Vec<Real>,
     /// How many of `ends` are the mesh's edges (the rest are across edges).
     pub edge_count: usize,
-    /// The springs of particle `k`: `of[start[k]..start[k + 1]]`, in increasing order.
+    /// The springs of particle `k`: `of[start[k]..start[k + 1]]`, in increasing order, each
+    /// as `2 s + e` with `e` 0 where `k` is the spring's first end and 1 where its second.
     pub start: Vec<u32>,
     /// See [`MeshSprings::start`].
     pub of: Vec<u32>,
 }
+
+/// Springs per task when the springs' forces are computed on the pool.
+const SPRINGS_PER_TASK: usize = 4096;
 
 /// The membrane `C` (Mandel form, N/m) of a grid with springs `k_s`, `k_h`.
 fn membrane(structural: Real, shear: Real) -> [[Real; 3]; 3] {
@@ -225,8 +229,8 @@ impl MeshSprings {
         let mut fill = start.clone();
         let mut of = vec![0u32; 2 * ends.len()];
         for (s, &[a, b]) in ends.iter().enumerate() {
-            for v in [a, b] {
-                of[fill[v as usize] as usize] = s as u32;
+            for (e, v) in [a, b].into_iter().enumerate() {
+                of[fill[v as usize] as usize] = 2 * s as u32 + e as u32;
                 fill[v as usize] += 1;
             }
         }
@@ -240,10 +244,63 @@ impl MeshSprings {
         }
     }
 
-    /// The springs of particle `k`.
+    /// The springs of particle `k`, each as `2 s + e` (`e` 1 where `k` is its second end).
     #[inline]
     pub fn springs_of(&self, k: usize) -> &[u32] {
         &self.of[self.start[k] as usize..self.start[k + 1] as usize]
+    }
+
+    /// Every spring's force on its first end at positions `x` into `out` (N), on the pool when
+    /// `parallel`; each spring is computed once, in chunks whose arithmetic vectorises (the
+    /// ends gathered first, then `k (l - L) / l` over the chunk).
+    pub fn forces_into(&self, x: &Soa, out: &mut Vec<Vec3>, parallel: bool) {
+        out.resize(self.ends.len(), Vec3::ZERO);
+        let chunk = |start: usize, o: &mut [Vec3]| {
+            const LANE: usize = 64;
+            let (mut dx, mut dy, mut dz) = ([0.0; LANE], [0.0; LANE], [0.0; LANE]);
+            let mut f = [0.0; LANE];
+            for (c, o) in o.chunks_mut(LANE).enumerate() {
+                let s0 = start + c * LANE;
+                let m = o.len();
+                for i in 0..m {
+                    let [a, b] = self.ends[s0 + i];
+                    let (a, b) = (a as usize, b as usize);
+                    dx[i] = x.x[b] - x.x[a];
+                    dy[i] = x.y[b] - x.y[a];
+                    dz[i] = x.z[b] - x.z[a];
+                }
+                let (k, l0) = (&self.stiffness[s0..s0 + m], &self.rest[s0..s0 + m]);
+                for i in 0..m {
+                    let l = (dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]).sqrt();
+                    // A spring of no length has no direction: no force.
+                    f[i] = if l > 0.0 { k[i] * (l - l0[i]) / l } else { 0.0 };
+                }
+                for i in 0..m {
+                    o[i] = Vec3::new(dx[i] * f[i], dy[i] * f[i], dz[i] * f[i]);
+                }
+            }
+        };
+        if parallel && self.ends.len() > 2 * SPRINGS_PER_TASK {
+            use rayon::prelude::*;
+            out.par_chunks_mut(SPRINGS_PER_TASK)
+                .enumerate()
+                .for_each(|(c, o)| chunk(c * SPRINGS_PER_TASK, o));
+        } else {
+            chunk(0, out);
+        }
+    }
+
+    /// The force on particle `k` of the springs' forces `forces` ([`MeshSprings::forces_into`]),
+    /// summed in spring order.
+    #[inline]
+    pub fn gather(&self, forces: &[Vec3], k: usize) -> Vec3 {
+        let mut f = Vec3::ZERO;
+        for &e in self.springs_of(k) {
+            // +1 on the spring's first end, -1 on its second (exact: a sign flip).
+            let sign = 1.0 - 2.0 * (e & 1) as Real;
+            f += forces[(e >> 1) as usize] * sign;
+        }
+        f
     }
 
     /// Hooke's force of spring `s` on its first particle at positions `x`, N (eq. 3.6).
@@ -279,10 +336,11 @@ impl MeshSprings {
         let mut worst: Real = 0.0;
         for s in 0..self.edge_count {
             let [a, b] = self.ends[s];
-            let l2 = (x.get(b as usize) - x.get(a as usize)).length_squared();
+            let (a, b) = (a as usize, b as usize);
+            let (dx, dy, dz) = (x.x[b] - x.x[a], x.y[b] - x.y[a], x.z[b] - x.z[a]);
             let r = self.rest[s];
             // NaN propagates: a non-finite position shows as a NaN stretch.
-            let v = l2 / (r * r);
+            let v = (dx * dx + dy * dy + dz * dz) / (r * r);
             worst = if v > worst || v.is_nan() { v } else { worst };
         }
         worst

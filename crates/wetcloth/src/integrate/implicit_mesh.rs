@@ -25,7 +25,7 @@
 //! (eq. 3.4-3.5, normal force and Coulomb friction on the move), and the velocity is what the
 //! corrected move implies.
 
-use super::sparse::{BlockCsr, Preconditioner, pcg};
+use super::sparse::{BlockCsr, CgScratch, Preconditioner, pcg};
 use super::verlet_mesh::{pressure_per_pascal, resolve_contacts};
 use super::{Air, Fused};
 use crate::air::{AirLoad, Timing};
@@ -48,6 +48,9 @@ pub(crate) struct ImplicitMesh {
     /// For each spring, where its blocks `(a, b)` and `(b, a)` are in `a.val`.
     slots: Vec<[u32; 2]>,
     pre: Preconditioner,
+    cg: CgScratch,
+    /// The springs' forces on their first ends, N.
+    spring_force: Vec<Vec3>,
     budget: Option<SolveBudget>,
     rhs: Soa,
     v: Soa,
@@ -85,10 +88,14 @@ impl ImplicitMesh {
                 ]
             })
             .collect();
+        let mut pre = Preconditioner::default();
+        pre.setup(&a, true);
         Self {
             a,
             slots,
-            pre: Preconditioner::default(),
+            pre,
+            cg: CgScratch::default(),
+            spring_force: Vec::new(),
             budget: Some(budget),
             rhs: Soa::zeros(n),
             v: Soa::zeros(n),
@@ -105,6 +112,8 @@ impl ImplicitMesh {
         self.a.heap_bytes()
             + self.slots.capacity() * 8
             + self.pre.heap_bytes()
+            + self.cg.heap_bytes()
+            + self.spring_force.capacity() * 24
             + [&self.rhs, &self.v, &self.w, &self.per_pascal, &self.force]
                 .iter()
                 .map(|s| s.heap_bytes())
@@ -165,9 +174,10 @@ impl ImplicitMesh {
         let x = &state.x;
         let law = model.pressure_force;
         // Forces at the step's start: gravity, springs (damping is in the matrix).
+        springs.forces_into(x, &mut self.spring_force, parallel);
         for k in 0..n {
             let f = gravity::weight_and_damping(model.mass(k), model.gravity, 0.0, Vec3::ZERO)
-                + springs.force_on(x, k);
+                + springs.gather(&self.spring_force, k);
             self.force.set(k, f);
             self.per_pascal.set(k, pressure_per_pascal(mesh, law, x, k));
         }
@@ -220,7 +230,7 @@ impl ImplicitMesh {
             SolveBudget::Converged => TOLERANCE_CONVERGED,
             SolveBudget::Interactive => TOLERANCE_INTERACTIVE,
         };
-        self.pre.build(&self.a, &self.fixed, true);
+        self.pre.refresh(&self.a, &self.fixed);
         // The solve sees the known velocities as fixed; their columns are in the rhs, so the
         // product is of the free unknowns only.
         let mut free_v = self.v.clone();
@@ -238,6 +248,7 @@ impl ImplicitMesh {
             tolerance,
             MAX_ITERATIONS,
             parallel,
+            &mut self.cg,
         );
         self.total_iterations += iters as u64;
         for k in 0..n {
@@ -265,6 +276,7 @@ impl ImplicitMesh {
                 tolerance,
                 MAX_ITERATIONS,
                 parallel,
+                &mut self.cg,
             );
             self.total_iterations += iters as u64;
             let dp = match model.sticking {

@@ -127,24 +127,36 @@ fn invert(b: DMat3) -> DMat3 {
     }
 }
 
-/// One level of the aggregation hierarchy: its matrix, its diagonal blocks' inverses, and the
-/// aggregate each of its rows joins on the next (coarser) level.
+/// A coarse level of the aggregation hierarchy: its matrix, its diagonal blocks' inverses,
+/// and the fine level's map onto it.
 #[derive(Clone, Debug, Default)]
 struct Level {
+    /// The coarse matrix (`P^T A P` of the finer level).
     a: BlockCsr,
-    inv_diag: Vec<DMat3>,
+    /// The aggregate (row of this level) each row of the finer level joins.
     aggregate: Vec<u32>,
-    coarse_rows: usize,
+    /// For each block of the finer level's matrix, where it adds in `a.val`.
+    galerkin: Vec<u32>,
+    /// Inverses of this level's diagonal blocks.
+    inv_diag: Vec<DMat3>,
+    /// Scratch: the restricted residual, the coarse correction, a product.
+    res: Soa,
+    x: Soa,
+    ax: Soa,
 }
 
-/// The preconditioner of a mesh system: block-Jacobi, or an aggregation multigrid V-cycle.
+/// The preconditioner of a mesh system: an aggregation multigrid V-cycle (block-Jacobi
+/// smoothing), or block-Jacobi alone. The hierarchy's pattern is built once from the matrix's
+/// pattern ([`Preconditioner::setup`]); each step refreshes its values
+/// ([`Preconditioner::refresh`]).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Preconditioner {
+    /// Inverses of the finest matrix's diagonal blocks (zero for fixed rows).
+    inv_diag: Vec<DMat3>,
+    /// The coarse levels, finest first (none: block-Jacobi).
     levels: Vec<Level>,
-    /// Whether to run the multigrid (else block-Jacobi on the finest level).
-    multigrid: bool,
-    /// Scratch per level: residual, correction, product.
-    scratch: Vec<[Soa; 3]>,
+    /// Scratch of the finest level: a product.
+    ax: Soa,
 }
 
 /// Smallest level aggregated further.
@@ -153,7 +165,7 @@ const COARSEST: usize = 200;
 const OMEGA: Real = 0.7;
 
 /// Greedy aggregation of the graph of `a`: returns each row's aggregate and the count.
-fn aggregate(a: &BlockCsr, fixed: &[bool]) -> (Vec<u32>, usize) {
+fn aggregate(a: &BlockCsr) -> (Vec<u32>, usize) {
     let n = a.rows();
     const NONE: u32 = u32::MAX;
     let mut agg = vec![NONE; n];
@@ -189,12 +201,12 @@ fn aggregate(a: &BlockCsr, fixed: &[bool]) -> (Vec<u32>, usize) {
             }
         }
     }
-    let _ = fixed;
     (agg, count as usize)
 }
 
-/// The Galerkin coarse matrix `P^T A P` of piecewise-constant aggregation.
-fn coarsen(a: &BlockCsr, agg: &[u32], m: usize) -> BlockCsr {
+/// The pattern of the Galerkin coarse matrix of piecewise-constant aggregation `agg` (`m`
+/// aggregates) of `a`, and where each block of `a` adds in it.
+fn coarse_pattern(a: &BlockCsr, agg: &[u32], m: usize) -> (BlockCsr, Vec<u32>) {
     let n = a.rows();
     let mut pairs = Vec::new();
     for i in 0..n {
@@ -205,170 +217,170 @@ fn coarsen(a: &BlockCsr, agg: &[u32], m: usize) -> BlockCsr {
             }
         }
     }
-    let mut c = BlockCsr::pattern(m, pairs.into_iter());
+    let c = BlockCsr::pattern(m, pairs.into_iter());
+    let mut galerkin = vec![0u32; a.col.len()];
     for i in 0..n {
         let p = agg[i] as usize;
         for k in a.start[i] as usize..a.start[i + 1] as usize {
             let q = agg[a.col[k] as usize] as usize;
-            if let Some(slot) = c.find(p, q) {
-                c.val[slot] += a.val[k];
-            }
+            galerkin[k] = c.find(p, q).unwrap_or(0) as u32;
         }
     }
-    c
+    (c, galerkin)
+}
+
+/// One damped block-Jacobi sweep `x += omega D^-1 (b - A x)`, `ax` scratch.
+fn sweep(a: &BlockCsr, inv_diag: &[DMat3], b: &Soa, x: &mut Soa, ax: &mut Soa) {
+    a.mul(x, ax, false);
+    for i in 0..b.len() {
+        let r = b.get(i) - ax.get(i);
+        x.set(i, x.get(i) + inv_diag[i] * r * OMEGA);
+    }
 }
 
 impl Preconditioner {
-    /// Builds the preconditioner of `a`: with `multigrid`, the aggregation hierarchy; rows
-    /// marked `fixed` act as the identity (their unknowns are known).
-    pub fn build(&mut self, a: &BlockCsr, fixed: &[bool], multigrid: bool) {
-        self.multigrid = multigrid;
-        let mut fine = a.clone();
-        // Fixed rows: identity, decoupled.
-        for i in 0..fine.rows() {
-            if fixed[i] {
-                for k in fine.start[i] as usize..fine.start[i + 1] as usize {
-                    fine.val[k] = DMat3::ZERO;
-                }
-                fine.val[fine.diag[i] as usize] = DMat3::IDENTITY;
-            } else {
-                for k in fine.start[i] as usize..fine.start[i + 1] as usize {
-                    if fixed[fine.col[k] as usize] {
-                        fine.val[k] = DMat3::ZERO;
-                    }
-                }
-            }
-        }
+    /// The hierarchy of the matrix pattern `a` (`multigrid`), or block-Jacobi alone.
+    pub fn setup(&mut self, a: &BlockCsr, multigrid: bool) {
         self.levels.clear();
-        let mut current = fine;
-        loop {
-            let inv_diag = (0..current.rows())
-                .map(|i| invert(current.val[current.diag[i] as usize]))
-                .collect();
-            let n = current.rows();
-            if !multigrid || n <= COARSEST {
-                self.levels.push(Level {
-                    a: current,
-                    inv_diag,
-                    aggregate: Vec::new(),
-                    coarse_rows: 0,
-                });
-                break;
-            }
-            let (agg, m) = aggregate(&current, &[]);
-            if m * 10 > n * 9 {
-                // Not coarsening any more: stop here.
-                self.levels.push(Level {
-                    a: current,
-                    inv_diag,
-                    aggregate: Vec::new(),
-                    coarse_rows: 0,
-                });
-                break;
-            }
-            let coarse = coarsen(&current, &agg, m);
-            self.levels.push(Level {
-                a: current,
-                inv_diag,
-                aggregate: agg,
-                coarse_rows: m,
-            });
-            current = coarse;
-        }
-        self.scratch = self
-            .levels
-            .iter()
-            .map(|l| {
-                let (n, m) = (l.a.rows(), l.coarse_rows);
-                [Soa::zeros(m), Soa::zeros(m), Soa::zeros(n)]
-            })
-            .collect();
-    }
-
-    /// `z = M^-1 r`.
-    pub fn apply(&mut self, r: &Soa, z: &mut Soa) {
-        if !self.multigrid {
-            let inv = &self.levels[0].inv_diag;
-            for i in 0..r.len() {
-                z.set(i, inv[i] * r.get(i));
-            }
+        self.inv_diag = vec![DMat3::ZERO; a.rows()];
+        self.ax = Soa::zeros(a.rows());
+        if !multigrid {
             return;
         }
-        self.cycle(0, r, z);
+        let mut fine = a.clone();
+        while fine.rows() > COARSEST {
+            let (agg, m) = aggregate(&fine);
+            if m * 10 > fine.rows() * 9 {
+                break;
+            }
+            let (c, galerkin) = coarse_pattern(&fine, &agg, m);
+            self.levels.push(Level {
+                a: c.clone(),
+                aggregate: agg,
+                galerkin,
+                inv_diag: vec![DMat3::ZERO; m],
+                res: Soa::zeros(m),
+                x: Soa::zeros(m),
+                ax: Soa::zeros(m),
+            });
+            fine = c;
+        }
     }
 
-    /// A V-cycle from level `l` on the right-hand side `b`, into `x`.
-    fn cycle(&mut self, l: usize, b: &Soa, x: &mut Soa) {
-        let n = b.len();
-        if l + 1 == self.levels.len() {
-            // Coarsest: damped block-Jacobi sweeps from zero.
-            let level = &self.levels[l];
-            for i in 0..n {
-                x.set(i, level.inv_diag[i] * b.get(i));
+    /// The values of the matrix `a` (of the pattern [`Preconditioner::setup`] took), its rows
+    /// marked `fixed` known (left out of every level).
+    pub fn refresh(&mut self, a: &BlockCsr, fixed: &[bool]) {
+        for i in 0..a.rows() {
+            self.inv_diag[i] = if fixed[i] {
+                DMat3::ZERO
+            } else {
+                invert(a.val[a.diag[i] as usize])
+            };
+        }
+        for l in 0..self.levels.len() {
+            let (done, rest) = self.levels.split_at_mut(l);
+            let level = &mut rest[0];
+            for v in &mut level.a.val {
+                *v = DMat3::ZERO;
             }
-            let mut ax = Soa::zeros(n);
-            for _ in 0..8 {
-                level.a.mul(x, &mut ax, false);
-                for i in 0..n {
-                    let r = b.get(i) - ax.get(i);
-                    x.set(i, x.get(i) + level.inv_diag[i] * r * OMEGA);
+            let fine = if l == 0 { a } else { &done[l - 1].a };
+            for i in 0..fine.rows() {
+                if l == 0 && fixed[i] {
+                    continue;
+                }
+                for k in fine.start[i] as usize..fine.start[i + 1] as usize {
+                    if l == 0 && fixed[fine.col[k] as usize] {
+                        continue;
+                    }
+                    level.a.val[level.galerkin[k] as usize] += fine.val[k];
                 }
             }
+            for i in 0..level.a.rows() {
+                level.inv_diag[i] = invert(level.a.val[level.a.diag[i] as usize]);
+            }
+        }
+    }
+
+    /// `z = M^-1 r` for the matrix `a` of the last refresh.
+    pub fn apply(&mut self, a: &BlockCsr, r: &Soa, z: &mut Soa) {
+        if self.levels.is_empty() {
+            for i in 0..r.len() {
+                z.set(i, self.inv_diag[i] * r.get(i));
+            }
             return;
         }
-        let [mut res, mut coarse_x, mut ax] = std::mem::take(&mut self.scratch[l]);
-        {
-            let level = &self.levels[l];
-            // Pre-smooth from zero.
-            for i in 0..n {
-                x.set(i, level.inv_diag[i] * b.get(i) * OMEGA);
-            }
-            level.a.mul(x, &mut ax, false);
-            for i in 0..n {
-                let r = b.get(i) - ax.get(i);
-                x.set(i, x.get(i) + level.inv_diag[i] * r * OMEGA);
-            }
-            level.a.mul(x, &mut ax, false);
-            // Restrict the residual.
-            for v in [&mut res.x, &mut res.y, &mut res.z] {
+        let mut ax = std::mem::take(&mut self.ax);
+        let inv = std::mem::take(&mut self.inv_diag);
+        self.cycle(0, a, &inv, r, z, &mut ax);
+        self.inv_diag = inv;
+        self.ax = ax;
+    }
+
+    /// A V-cycle on the level whose matrix is `a` (inverse diagonal `inv`), right-hand side
+    /// `b`, into `x`; `levels[l]` is the next coarser level.
+    fn cycle(&mut self, l: usize, a: &BlockCsr, inv: &[DMat3], b: &Soa, x: &mut Soa, ax: &mut Soa) {
+        let n = b.len();
+        // Pre-smooth from zero: two damped sweeps.
+        for i in 0..n {
+            x.set(i, inv[i] * b.get(i) * OMEGA);
+        }
+        sweep(a, inv, b, x, ax);
+        if l < self.levels.len() {
+            a.mul(x, ax, false);
+            let mut level = std::mem::take(&mut self.levels[l]);
+            for v in [&mut level.res.x, &mut level.res.y, &mut level.res.z] {
                 v.fill(0.0);
             }
             for i in 0..n {
                 let g = level.aggregate[i] as usize;
-                res.set(g, res.get(g) + (b.get(i) - ax.get(i)));
+                level.res.set(g, level.res.get(g) + (b.get(i) - ax.get(i)));
             }
-        }
-        self.cycle(l + 1, &res, &mut coarse_x);
-        let level = &self.levels[l];
-        for i in 0..n {
-            let g = level.aggregate[i] as usize;
-            x.set(i, x.get(i) + coarse_x.get(g));
-        }
-        // Post-smooth.
-        for _ in 0..2 {
-            level.a.mul(x, &mut ax, false);
+            let (coarse_a, coarse_inv) = (
+                std::mem::take(&mut level.a),
+                std::mem::take(&mut level.inv_diag),
+            );
+            let (res, mut cx, mut cax) = (
+                std::mem::take(&mut level.res),
+                std::mem::take(&mut level.x),
+                std::mem::take(&mut level.ax),
+            );
+            self.cycle(l + 1, &coarse_a, &coarse_inv, &res, &mut cx, &mut cax);
             for i in 0..n {
-                let r = b.get(i) - ax.get(i);
-                x.set(i, x.get(i) + level.inv_diag[i] * r * OMEGA);
+                let g = level.aggregate[i] as usize;
+                x.set(i, x.get(i) + cx.get(g));
+            }
+            level.a = coarse_a;
+            level.inv_diag = coarse_inv;
+            level.res = res;
+            level.x = cx;
+            level.ax = cax;
+            self.levels[l] = level;
+        } else {
+            // The coarsest level: more sweeps.
+            for _ in 0..6 {
+                sweep(a, inv, b, x, ax);
             }
         }
-        self.scratch[l] = [res, coarse_x, ax];
+        // Post-smooth: two sweeps.
+        sweep(a, inv, b, x, ax);
+        sweep(a, inv, b, x, ax);
     }
 
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.levels
-            .iter()
-            .map(|l| {
-                l.a.heap_bytes()
-                    + l.inv_diag.capacity() * std::mem::size_of::<DMat3>()
-                    + l.aggregate.capacity() * 4
-            })
-            .sum::<usize>()
+        self.inv_diag.capacity() * std::mem::size_of::<DMat3>()
+            + self.ax.heap_bytes()
             + self
-                .scratch
+                .levels
                 .iter()
-                .map(|s| s.iter().map(Soa::heap_bytes).sum::<usize>())
+                .map(|l| {
+                    l.a.heap_bytes()
+                        + l.inv_diag.capacity() * std::mem::size_of::<DMat3>()
+                        + (l.aggregate.capacity() + l.galerkin.capacity()) * 4
+                        + l.res.heap_bytes()
+                        + l.x.heap_bytes()
+                        + l.ax.heap_bytes()
+                })
                 .sum::<usize>()
     }
 }
@@ -384,9 +396,26 @@ pub(crate) fn dot(a: &Soa, b: &Soa, fixed: &[bool]) -> Real {
     s
 }
 
-/// Solves `A x = b` for the rows not `fixed` (their `x` kept as given, their residual ignored)
-/// by the preconditioned conjugate gradient, from the `x` given, to a residual of `tolerance`
-/// times the right-hand side's norm or `max_iterations`. Returns the iterations taken.
+/// The conjugate gradient's vectors, kept between solves.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CgScratch {
+    r: Soa,
+    z: Soa,
+    p: Soa,
+    ap: Soa,
+}
+
+impl CgScratch {
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.r.heap_bytes() + self.z.heap_bytes() + self.p.heap_bytes() + self.ap.heap_bytes()
+    }
+}
+
+/// Solves `A x = b` for the rows not `fixed` (their `x` must be zero: their columns are the
+/// caller's, moved to `b`; their residual is ignored) by the preconditioned conjugate gradient,
+/// from the `x` given, to a residual of `tolerance` times the right-hand side's norm or
+/// `max_iterations`. Returns the iterations taken.
 #[allow(clippy::too_many_arguments)] // the system, its unknowns and the CG's scratch
 pub(crate) fn pcg(
     a: &BlockCsr,
@@ -397,13 +426,16 @@ pub(crate) fn pcg(
     tolerance: Real,
     max_iterations: usize,
     parallel: bool,
+    scratch: &mut CgScratch,
 ) -> usize {
     let n = b.len();
-    let mut r = Soa::zeros(n);
-    let mut z = Soa::zeros(n);
-    let mut p = Soa::zeros(n);
-    let mut ap = Soa::zeros(n);
-    a.mul(x, &mut ap, parallel);
+    let CgScratch { r, z, p, ap } = scratch;
+    for v in [&mut *r, &mut *z, &mut *p, &mut *ap] {
+        if v.len() != n {
+            *v = Soa::zeros(n);
+        }
+    }
+    a.mul(x, ap, parallel);
     for i in 0..n {
         r.set(
             i,
@@ -422,17 +454,17 @@ pub(crate) fn pcg(
             }
         }
     };
-    if dot(&r, &r, fixed).sqrt() <= tolerance * norm_b {
+    if dot(r, r, fixed).sqrt() <= tolerance * norm_b {
         return 0;
     }
-    pre.apply(&r, &mut z);
-    mask(&mut z);
-    p.clone_from(&z);
-    let mut rz = dot(&r, &z, fixed);
+    pre.apply(a, r, z);
+    mask(z);
+    p.clone_from(z);
+    let mut rz = dot(r, z, fixed);
     for it in 1..=max_iterations {
-        a.mul(&p, &mut ap, parallel);
-        mask(&mut ap);
-        let pap = dot(&p, &ap, fixed);
+        a.mul(p, ap, parallel);
+        mask(ap);
+        let pap = dot(p, ap, fixed);
         if pap.is_nan() || pap <= 0.0 {
             return it;
         }
@@ -441,12 +473,12 @@ pub(crate) fn pcg(
             x.set(i, x.get(i) + p.get(i) * alpha);
             r.set(i, r.get(i) - ap.get(i) * alpha);
         }
-        if dot(&r, &r, fixed).sqrt() <= tolerance * norm_b {
+        if dot(r, r, fixed).sqrt() <= tolerance * norm_b {
             return it;
         }
-        pre.apply(&r, &mut z);
-        mask(&mut z);
-        let rz_new = dot(&r, &z, fixed);
+        pre.apply(a, r, z);
+        mask(z);
+        let rz_new = dot(r, z, fixed);
         let beta = rz_new / rz;
         rz = rz_new;
         for i in 0..n {
@@ -487,9 +519,21 @@ mod tests {
         let mut iters = [0; 2];
         for (slot, mg) in [false, true].into_iter().enumerate() {
             let mut pre = Preconditioner::default();
-            pre.build(&a, &fixed, mg);
+            pre.setup(&a, mg);
+            pre.refresh(&a, &fixed);
             let mut x = Soa::zeros(n);
-            iters[slot] = pcg(&a, &mut pre, &b, &mut x, &fixed, 1e-10, 5000, false);
+            let mut scratch = CgScratch::default();
+            iters[slot] = pcg(
+                &a,
+                &mut pre,
+                &b,
+                &mut x,
+                &fixed,
+                1e-10,
+                5000,
+                false,
+                &mut scratch,
+            );
             let mut ax = Soa::zeros(n);
             a.mul(&x, &mut ax, false);
             let mut err: Real = 0.0;

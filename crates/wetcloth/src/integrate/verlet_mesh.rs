@@ -32,6 +32,8 @@ pub(crate) struct MeshVerlet {
     pub force: Soa,
     /// The pressure force of the step, N (end-of-step pressure).
     pressure: Soa,
+    /// Each spring's force on its first end, N.
+    spring_force: Vec<Vec3>,
     /// The grabbed particles' previous positions, m.
     saved_prev: Vec<Vec3>,
     /// The measures of the coasting positions.
@@ -144,6 +146,7 @@ impl MeshVerlet {
         Self {
             force: Soa::zeros(n),
             pressure: Soa::zeros(n),
+            spring_force: Vec::new(),
             saved_prev: Vec::new(),
             coast: Measures::for_layout(layout, false),
         }
@@ -153,6 +156,7 @@ impl MeshVerlet {
     pub fn heap_bytes(&self) -> usize {
         self.force.heap_bytes()
             + self.pressure.heap_bytes()
+            + self.spring_force.capacity() * 24
             + self.saved_prev.capacity() * 24
             + self.coast.heap_bytes()
     }
@@ -192,12 +196,14 @@ impl MeshVerlet {
         let damping_per_dt = model.damping / dt;
         let law = model.pressure_force;
         // Every force but the pressure (gravity and damping, eq. 3.3; springs, eq. 3.6).
+        springs.forces_into(x, &mut self.spring_force, parallel);
         {
             let prev: &Soa = prev;
+            let sf = &self.spring_force;
             for_each(&mut self.force, parallel, |k| {
                 let v = x.get(k) - prev.get(k);
                 gravity::weight_and_damping(model.mass(k), model.gravity, damping_per_dt, v)
-                    + springs.force_on(x, k)
+                    + springs.gather(sf, k)
             });
         }
         // The pressure (eq. 3.7): of the step's start, or of its end from the coasting
@@ -221,10 +227,16 @@ impl MeshVerlet {
         match air.timing {
             Timing::Now => {
                 let (p, each) = load_of(&air);
-                pressure_now(&mut self.pressure, p, each.as_deref());
+                let acts = p != 0.0 || each.is_some();
+                if acts {
+                    pressure_now(&mut self.pressure, p, each.as_deref());
+                }
                 for k in 0..n {
-                    let f = self.force.get(k) + self.pressure.get(k);
-                    self.force.set(k, f);
+                    let mut f = self.force.get(k);
+                    if acts {
+                        f += self.pressure.get(k);
+                        self.force.set(k, f);
+                    }
                     let h = dt2 / model.mass(k);
                     let (here, before) = (x.get(k), prev.get(k));
                     prev.set(k, here + (here - before) + f * h);
