@@ -7,8 +7,8 @@
 //! A particle *seals* when it touches a collider (its centre within its radius plus
 //! `seal_distance` of the surface) and its wetness is at least `seal_wetness`: water closes the
 //! gap there. Dry cloth never seals. A particle inside a pocket whose air pushes out (pressure
-//! above atmospheric) does not seal unless it is pressed onto the surface (within its radius):
-//! the air holds the cloth off the surface.
+//! above atmospheric) does not seal unless it is pressed onto the surface (its centre within
+//! its radius plus [`TOUCH`] of it, see [`TOUCH`]): the air holds the cloth off the surface.
 //!
 //! The cloth's cells (the grid's quads) with an unsealed corner hold air. Air passes between
 //! two neighbouring cells across their shared edge unless both of its particles are sealed, so
@@ -59,6 +59,13 @@ use crate::state::State;
 
 /// No pocket (an open region, a sealed cell, a sealed particle).
 pub const NONE: u32 = u32::MAX;
+
+/// How far beyond its radius a particle's centre may lie from a surface and still be pressed
+/// onto it (touching), m: [`MIN_GAP`], the weave's thickness, the room Boyle's law already
+/// counts as none. A hand or the contact puts a particle at its radius only to round-off: a
+/// column held on the table over a pocket at 102.6 kPa sat 7e-19 m above its radius, so an
+/// exact test (`gap <= radius`) never let it seal and the pocket never split.
+pub const TOUCH: Real = MIN_GAP;
 
 /// A sealed pocket of air.
 #[derive(Clone, Debug, PartialEq)]
@@ -112,8 +119,8 @@ pub struct Pockets {
     /// Whether volumes are measured against the colliders' own surfaces (any shape, the
     /// nearest one under each particle) rather than the single sticking plane.
     pub surface: bool,
-    /// Whether each particle touches a collider (within its radius): a sealed particle that
-    /// does not is where a rim is close to opening.
+    /// Whether each particle touches a collider (within its radius plus [`TOUCH`]): a sealed
+    /// particle that does not is where a rim is close to opening.
     touching: Vec<bool>,
     /// `sealed` before the last sealing, to skip the region search when nothing changed.
     previous_sealed: Vec<bool>,
@@ -486,7 +493,7 @@ impl Pockets {
         }
         self.update_pressures(air);
         // Seal again; a particle inside a pocket that pushes out stays unsealed unless it is
-        // pressed onto the surface (within its radius).
+        // pressed onto the surface (within its radius plus `TOUCH`).
         std::mem::swap(&mut self.sealed, &mut self.previous_sealed);
         let mut keep_open = std::mem::take(&mut self.scratch.keep_open);
         keep_open.clear();
@@ -574,15 +581,16 @@ impl Pockets {
     /// Marks the particles that seal (from the gaps of [`Pockets::gaps`]): wet enough and
     /// within `seal_distance` beyond their radius of a collider's surface if they sealed
     /// before (`previous_sealed`), within `seal_distance * (1 - seal_hysteresis)` if not, where
-    /// `may_seal(k, touching)` allows (`touching`: within the radius itself).
+    /// `may_seal(k, touching)` allows (`touching`: within the radius plus [`TOUCH`]).
     fn seal(&mut self, air: &AirParams, model: &Model, may_seal: impl Fn(usize, bool) -> bool) {
         // A sealed particle (in `previous_sealed`, the seal before this one) stays sealed out
         // to `seal_distance`; an open one seals within the hysteresis' share of it.
         let keep = model.radius + air.seal_distance;
         let close = model.radius + air.seal_distance * (1.0 - air.seal_hysteresis);
+        let touch = model.radius + TOUCH;
         for k in 0..self.sealed.len() {
             let gap = self.scratch.gap[k];
-            self.touching[k] = gap <= model.radius;
+            self.touching[k] = gap <= touch;
             let reach = if self.previous_sealed[k] { keep } else { close };
             self.sealed[k] = model.wetness[k] >= air.seal_wetness
                 && gap <= reach
