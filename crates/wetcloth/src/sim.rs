@@ -74,7 +74,12 @@ impl Simulation {
             })
             .collect();
         let mut sim = Self {
-            state: State::at_rest(model.grid.rest_positions(config.cloth.position)),
+            // At rest, the cloth over seeded pockets lifted to hold their air.
+            state: State::at_rest(crate::air::pockets::lift_seeds(
+                &config.air,
+                &model,
+                model.grid.rest_positions(config.cloth.position),
+            )),
             control,
             air: AirModel::Thesis(crate::air::Bubble::new(config.air.trapped_air)),
             integrator: IntegratorState::new(
