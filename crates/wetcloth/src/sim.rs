@@ -97,7 +97,8 @@ impl Simulation {
         }
         let mut sim = Self {
             grab_of,
-            state: State::at_rest(rest),
+            // At rest, the cloth over seeded pockets lifted to hold their air.
+            state: State::at_rest(crate::air::pockets::lift_seeds(&config.air, &model, rest)),
             control,
             air: AirModel::Thesis(crate::air::Bubble::new(config.air.trapped_air)),
             integrator: IntegratorState::new(

@@ -7,8 +7,8 @@
 //! A particle *seals* when it touches a collider (its centre within its radius plus
 //! `seal_distance` of the surface) and its wetness is at least `seal_wetness`: water closes the
 //! gap there. Dry cloth never seals. A particle inside a pocket whose air pushes out (pressure
-//! above atmospheric) does not seal unless it is pressed onto the surface (within its radius):
-//! the air holds the cloth off the surface.
+//! above atmospheric) does not seal unless it is pressed onto the surface (its centre within
+//! its radius plus [`TOUCH`] of it, see [`TOUCH`]): the air holds the cloth off the surface.
 //!
 //! The cloth's cells (the grid's quads) with an unsealed corner hold air. Air passes between
 //! two neighbouring cells across their shared edge unless both of its particles are sealed, so
@@ -59,6 +59,13 @@ use crate::state::State;
 
 /// No pocket (an open region, a sealed cell, a sealed particle).
 pub const NONE: u32 = u32::MAX;
+
+/// How far beyond its radius a particle's centre may lie from a surface and still be pressed
+/// onto it (touching), m: [`MIN_GAP`], the weave's thickness, the room Boyle's law already
+/// counts as none. A hand or the contact puts a particle at its radius only to round-off: a
+/// column held on the table over a pocket at 102.6 kPa sat 7e-19 m above its radius, so an
+/// exact test (`gap <= radius`) never let it seal and the pocket never split.
+pub const TOUCH: Real = MIN_GAP;
 
 /// A sealed pocket of air.
 #[derive(Clone, Debug, PartialEq)]
@@ -112,8 +119,8 @@ pub struct Pockets {
     /// Whether volumes are measured against the colliders' own surfaces (any shape, the
     /// nearest one under each particle) rather than the single sticking plane.
     pub surface: bool,
-    /// Whether each particle touches a collider (within its radius): a sealed particle that
-    /// does not is where a rim is close to opening.
+    /// Whether each particle touches a collider (within its radius plus [`TOUCH`]): a sealed
+    /// particle that does not is where a rim is close to opening.
     touching: Vec<bool>,
     /// `sealed` before the last sealing, to skip the region search when nothing changed.
     previous_sealed: Vec<bool>,
@@ -179,8 +186,14 @@ struct Scratch {
 impl Pockets {
     /// The pockets of the cloth at t = 0 in `state`: sealed where it touches, pockets of the
     /// enclosed air at atmospheric pressure, and the seeded pockets of `air.pockets` holding
-    /// their amounts.
+    /// their amounts (at atmospheric pressure where [`lift_seeds`] shaped the cloth over them).
     pub(crate) fn new(air: &AirParams, model: &Model, state: &State, measures: &Measures) -> Self {
+        Self::at(air, model, &state.x, measures, &seeds_of(air, model.grid()))
+    }
+
+    /// [`Pockets::new`] for the cloth at `x` (m), measured in `measures`, each particle's seed
+    /// in `seed_of` ([`seeds_of`]).
+    fn at(air: &AirParams, model: &Model, x: &Soa, measures: &Measures, seed_of: &[u32]) -> Self {
         let n = model.grid().len();
         let cells = (model.grid().nx - 1) * (model.grid().nz - 1);
         let mut p = Self {
@@ -204,24 +217,9 @@ impl Pockets {
             next_id: 1,
             scratch: Scratch::default(),
         };
-        // The seeded particles start unsealed, and their regions hold the seeds' air. Each
-        // particle's seed (the first disc holding it) is found once: particles x seeds. (Asking
-        // again per seed cost seeds^2 x particles: 20 000 seeds took 30 s before the first
-        // step.)
-        let rest = model.grid().rest_positions(crate::math::Vec3::ZERO);
-        let seed_of: Vec<u32> = (0..n)
-            .map(|k| {
-                air.pockets
-                    .iter()
-                    .position(|s| {
-                        let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
-                        dx * dx + dz * dz <= s.radius * s.radius
-                    })
-                    .map_or(NONE, |s| s as u32)
-            })
-            .collect();
-        p.gaps(model, &state.x, 0.0);
-        p.cell_volumes(model, &state.x, measures);
+        // The seeded particles start unsealed, and their regions hold the seeds' air.
+        p.gaps(model, x, 0.0);
+        p.cell_volumes(model, x, measures);
         p.seal(air, model, |k, _| seed_of[k] == NONE);
         p.resegment(air, model, true);
         // Seeded regions: their air is the seeds' amount (a seed's pocket is that of its first
@@ -486,7 +484,7 @@ impl Pockets {
         }
         self.update_pressures(air);
         // Seal again; a particle inside a pocket that pushes out stays unsealed unless it is
-        // pressed onto the surface (within its radius).
+        // pressed onto the surface (within its radius plus `TOUCH`).
         std::mem::swap(&mut self.sealed, &mut self.previous_sealed);
         let mut keep_open = std::mem::take(&mut self.scratch.keep_open);
         keep_open.clear();
@@ -574,15 +572,16 @@ impl Pockets {
     /// Marks the particles that seal (from the gaps of [`Pockets::gaps`]): wet enough and
     /// within `seal_distance` beyond their radius of a collider's surface if they sealed
     /// before (`previous_sealed`), within `seal_distance * (1 - seal_hysteresis)` if not, where
-    /// `may_seal(k, touching)` allows (`touching`: within the radius itself).
+    /// `may_seal(k, touching)` allows (`touching`: within the radius plus [`TOUCH`]).
     fn seal(&mut self, air: &AirParams, model: &Model, may_seal: impl Fn(usize, bool) -> bool) {
         // A sealed particle (in `previous_sealed`, the seal before this one) stays sealed out
         // to `seal_distance`; an open one seals within the hysteresis' share of it.
         let keep = model.radius + air.seal_distance;
         let close = model.radius + air.seal_distance * (1.0 - air.seal_hysteresis);
+        let touch = model.radius + TOUCH;
         for k in 0..self.sealed.len() {
             let gap = self.scratch.gap[k];
-            self.touching[k] = gap <= model.radius;
+            self.touching[k] = gap <= touch;
             let reach = if self.previous_sealed[k] { keep } else { close };
             self.sealed[k] = model.wetness[k] >= air.seal_wetness
                 && gap <= reach
@@ -893,6 +892,257 @@ impl Pockets {
         }
     }
 }
+
+/// Each particle's seed: the first disc of `air.pockets` holding it at rest, or [`NONE`]. Found
+/// once per particle: particles x seeds. (Asking again per seed cost seeds^2 x particles:
+/// 20 000 seeds took 30 s before the first step.)
+fn seeds_of(air: &AirParams, grid: &crate::model::Grid) -> Vec<u32> {
+    let rest = grid.rest_positions(crate::math::Vec3::ZERO);
+    (0..grid.len())
+        .map(|k| {
+            air.pockets
+                .iter()
+                .position(|s| {
+                    let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
+                    dx * dx + dz * dz <= s.radius * s.radius
+                })
+                .map_or(NONE, |s| s as u32)
+        })
+        .collect()
+}
+
+/// The cloth at t = 0 with each seeded pocket (`[[air.pocket]]`) holding its air at
+/// atmospheric pressure, at rest: `x` (m, the cloth's rest positions) with the cloth over the
+/// seeds lifted off the surface, along its normal, into a shallow spherical cap over each
+/// seed's *footprint*, a disc about the seed's centre.
+///
+/// The footprint is the seed's disc, widened where the amount needs a cap higher than
+/// [`SEED_BULGE`] times its radius: a cap of height `b R` over radius `R` (m) holds
+/// `pi R^3 b (3 + b^2) / 6` m^3, so 50 cm^3 widens a 4 cm disc to 6.8 cm (never closer than two
+/// particle spacings to the cloth's border). The cloth's meridians are stretched evenly (a
+/// particle at rest distance `r` from the centre goes to arc length `r (1 + e)` from the cap's
+/// top, the footprint's rim staying where it is); at a bulge of 0.1 the stretch `e` is 0.7 %.
+/// A steeper cap does not stay: the seed's disc itself, 50 cm^3 under a 4 cm disc (a bulge of
+/// 0.46, stretched 13.8 %), fell in within 3 ms, its top hit the table and lobes pinched off;
+/// a paraboloid lifted straight up (41 % at its rim) likewise in 2 ms.
+///
+/// The bulge of each group of seeds whose footprints overlap (one for the group, each disc's
+/// cap `b R` high; a particle in several follows the one it lies deepest in, largest `1 -
+/// r^2 / R^2`) is solved by a safeguarded secant on the measured volume of the pockets the
+/// lifted cloth makes there (eq. 3.10 over their cells as the model measures them, or the
+/// frustums over the colliders' surfaces) until it is the group's amount to
+/// [`SEED_TOLERANCE`]: the pockets start at atmospheric pressure (the cloth weighs a few
+/// pascals). Without the lift a seeded cloth lying on the surface started with all its air in
+/// the weave's thickness ([`MIN_GAP`]): 666 MPa for 50 cm^3 under a 4 cm disc, an explosion
+/// that threw the cloth up and split the bubble into three pockets.
+///
+/// The bulge is at most 1 (hemispheres): a group that needs more (its footprint held in by
+/// the border) starts above atmospheric pressure, as do seeds under a cloth already holding
+/// more room than their air (nothing is lowered). Seeds whose disc is open to the room, and
+/// every particle outside the footprints, stay where they are; without the pockets model or
+/// seeds, `x` is returned unchanged.
+pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
+    if air.model != crate::params::AirModelKind::Pockets || air.pockets.is_empty() {
+        return x;
+    }
+    let grid = model.grid();
+    let n = grid.len();
+    let seed_of = seeds_of(air, grid);
+    let mut measures = Measures::for_grid(grid, true);
+    let remeasure = |m: &mut Measures, x: &Soa| {
+        m.remeasure_all(grid, x, model.sticking, model.radius, None);
+    };
+    remeasure(&mut measures, &x);
+    let flat = Pockets::at(air, model, &x, &measures, &seed_of);
+    // The seeds that make a sealed pocket (their air is kept), and their footprints' radii.
+    let mut sealed = vec![false; air.pockets.len()];
+    for k in 0..n {
+        if seed_of[k] != NONE && flat.particle_pocket[k] != NONE {
+            sealed[seed_of[k] as usize] = true;
+        }
+    }
+    if !sealed.iter().any(|&s| s) {
+        return x;
+    }
+    let (half_w, half_d) = (
+        0.5 * grid.dx * (grid.nx - 1) as Real,
+        0.5 * grid.dz * (grid.nz - 1) as Real,
+    );
+    let spacing = grid.dx.max(grid.dz);
+    let footprint: Vec<Real> = air
+        .pockets
+        .iter()
+        .map(|s| {
+            let b = SEED_BULGE;
+            let wide = (6.0 * s.amount / (std::f64::consts::PI * b * (3.0 + b * b))).cbrt();
+            let room = (half_w - s.center[0].abs()).min(half_d - s.center[1].abs()) - 2.0 * spacing;
+            s.radius.max(wide.min(room))
+        })
+        .collect();
+    // Groups of sealed seeds whose footprints overlap (union-find, in seed order).
+    let seeds = air.pockets.len();
+    let mut group: Vec<usize> = (0..seeds).collect();
+    fn root(g: &mut [usize], mut a: usize) -> usize {
+        while g[a] != a {
+            g[a] = g[g[a]];
+            a = g[a];
+        }
+        a
+    }
+    for a in (0..seeds).filter(|&a| sealed[a]) {
+        for b in (a + 1..seeds).filter(|&b| sealed[b]) {
+            let (sa, sb) = (&air.pockets[a], &air.pockets[b]);
+            let (dx, dz) = (sa.center[0] - sb.center[0], sa.center[1] - sb.center[1]);
+            let reach = footprint[a] + footprint[b];
+            if dx * dx + dz * dz < reach * reach {
+                let (ra, rb) = (root(&mut group, a), root(&mut group, b));
+                group[ra.max(rb)] = ra.min(rb);
+            }
+        }
+    }
+    let group: Vec<usize> = (0..seeds).map(|a| root(&mut group, a)).collect();
+    // Each particle's footprint (the one it lies deepest in), 0 outside all.
+    let rest = grid.rest_positions(crate::math::Vec3::ZERO);
+    let mut disc = vec![NONE; n];
+    let mut depth: Vec<Real> = vec![0.0; n];
+    for k in 0..n {
+        for (d, s) in air.pockets.iter().enumerate().filter(|&(d, _)| sealed[d]) {
+            let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
+            let f = 1.0 - (dx * dx + dz * dz) / (footprint[d] * footprint[d]);
+            if f > depth[k] {
+                depth[k] = f;
+                disc[k] = d as u32;
+            }
+        }
+    }
+    let moved: Vec<usize> = (0..n).filter(|&k| disc[k] != NONE).collect();
+    // The direction each particle is lifted along: the sticking plane's normal, or the nearest
+    // surface's (found at `x`).
+    let up: Vec<crate::math::Vec3> = moved
+        .iter()
+        .map(|&k| match (flat.surface, model.sticking) {
+            (false, Some(plane)) => plane.up,
+            _ => flat.scratch.normal[k],
+        })
+        .collect();
+    let base = x.clone();
+    // Particle `k` (the `i`-th moved) on its footprint's cap of bulge `b`: the sphere of
+    // radius `R (1 + b^2) / (2 b)` through the rim, the particle at polar angle
+    // `2 atan(b) r / R` from the top.
+    let place = |x: &mut Soa, i: usize, k: usize, b: Real| {
+        let d = disc[k] as usize;
+        let (s, radius) = (&air.pockets[d], footprint[d]);
+        let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
+        let r = (dx * dx + dz * dz).sqrt();
+        let sphere = radius * (1.0 + b * b) / (2.0 * b);
+        let phi = 2.0 * b.atan() * r / radius;
+        let half = (0.5 * phi).sin();
+        let height = b * radius - 2.0 * sphere * half * half;
+        let inward = if r > 0.0 {
+            sphere * phi.sin() / r - 1.0
+        } else {
+            0.0
+        };
+        let shift = crate::math::Vec3::new(dx * inward, 0.0, dz * inward);
+        x.set(k, base.get(k) + shift + up[i] * height);
+    };
+    // Per group (by its root seed): its air, the bracket (a bulge with too little room and
+    // one with too much, if found yet), its bulge, and whether it is solved.
+    let mut target = vec![0.0; seeds];
+    for a in (0..seeds).filter(|&a| sealed[a]) {
+        target[group[a]] += air.pockets[a].amount;
+    }
+    let mut lo: Vec<(Real, Real)> = vec![(0.0, 0.0); seeds];
+    let mut hi: Vec<Option<(Real, Real)>> = vec![None; seeds];
+    let mut bulge = vec![0.0; seeds];
+    let mut done: Vec<bool> = (0..seeds).map(|a| !sealed[a] || group[a] != a).collect();
+    let mut volume = vec![0.0; seeds];
+    let mut counted = Vec::new();
+    for iteration in 0..=SEED_ITERATIONS {
+        if done.iter().all(|&d| d) {
+            break;
+        }
+        for (i, &k) in moved.iter().enumerate() {
+            let b = bulge[group[disc[k] as usize]];
+            x.set(k, base.get(k));
+            if b > 0.0 {
+                place(&mut x, i, k, b);
+            }
+        }
+        // The pockets the cloth makes now; each group's volume, the pockets its particles lie
+        // in (each counted once).
+        remeasure(&mut measures, &x);
+        let now = Pockets::at(air, model, &x, &measures, &seed_of);
+        volume.iter_mut().for_each(|v| *v = 0.0);
+        counted.clear();
+        counted.resize(now.pockets.len(), false);
+        for &k in &moved {
+            let q = now.particle_pocket[k];
+            if q != NONE && !counted[q as usize] {
+                counted[q as usize] = true;
+                volume[group[disc[k] as usize]] += now.pockets[q as usize].volume;
+            }
+        }
+        for a in 0..seeds {
+            if done[a] {
+                continue;
+            }
+            let (b, v, goal) = (bulge[a], volume[a], target[a]);
+            if iteration == 0 {
+                // The flat cloth's room; first guess: a cap of the footprints' bulge.
+                lo[a] = (0.0, v);
+                done[a] = goal <= v;
+                bulge[a] = SEED_BULGE;
+                continue;
+            }
+            if (v - goal).abs() <= SEED_TOLERANCE * goal || (v < goal && b >= MAX_BULGE) {
+                // Solved, or the hemispheres hold too little: they stay, above atmospheric.
+                done[a] = true;
+                continue;
+            }
+            if v < goal {
+                lo[a] = (b, v);
+            } else {
+                hi[a] = Some((b, v));
+            }
+            // The secant through the bracket's ends, kept inside it (bisection where not);
+            // without an upper end yet, the secant from the bracket's low end, at least
+            // doubling.
+            let (b0, v0) = lo[a];
+            let next = match hi[a] {
+                Some((b1, v1)) => {
+                    let t = b0 + (goal - v0) * (b1 - b0) / (v1 - v0);
+                    if t > b0 && t < b1 { t } else { 0.5 * (b0 + b1) }
+                }
+                None if b > b0 => {
+                    let t = b + (goal - v) * (b - b0) / (v - v0);
+                    if t > b {
+                        t.max(2.0 * b).min(4.0 * b)
+                    } else {
+                        2.0 * b
+                    }
+                }
+                None => 2.0 * b,
+            };
+            bulge[a] = next.min(MAX_BULGE);
+        }
+    }
+    x
+}
+
+/// How close a seeded pocket's volume at t = 0 comes to its amount, relative ([`lift_seeds`]):
+/// its pressure starts within this share of atmospheric.
+pub const SEED_TOLERANCE: Real = 1e-10;
+
+/// The largest bulge (height over footprint radius) of a seeded pocket's cap before its
+/// footprint widens beyond the seed's disc ([`lift_seeds`]): 0.1, the cloth stretched by 0.7 %.
+pub const SEED_BULGE: Real = 0.1;
+
+/// The largest bulge of a seeded pocket's caps ([`lift_seeds`]): hemispheres.
+const MAX_BULGE: Real = 1.0;
+
+/// Most measures of the cloth [`lift_seeds`] takes (a plane needs a handful).
+const SEED_ITERATIONS: usize = 60;
 
 /// The gap volume of each cell of `grid` at `x` against the colliders' surfaces, m^3, into
 /// `out` (cell `(i, j)` at `j * (nx - 1) + i`), generalising eq. 3.10. Each of the cell's two

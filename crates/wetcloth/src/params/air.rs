@@ -93,7 +93,10 @@ impl AirModelKind {
 }
 
 /// Air under the cloth at t = 0 (`[[air.pocket]]`): the particles within `radius` of `center`
-/// start unsealed and hold `amount`.
+/// start unsealed and hold `amount`, at rest at atmospheric pressure: the cloth over them starts
+/// lifted into a shallow cap (at most a tenth as high as wide, its footprint widened beyond
+/// `radius` where the amount needs more) whose measured gap volume is `amount`
+/// (`air::pockets::lift_seeds`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PocketSeed {
     /// Centre, m, as (x, z) from the cloth's centre at rest. Default (0, 0); each in [-1e3, 1e3].
