@@ -55,6 +55,7 @@
 mod caches;
 mod contacts;
 mod gas;
+mod lying;
 mod matrix;
 mod solver;
 mod springs;
@@ -128,6 +129,14 @@ pub(crate) struct Implicit {
     landed: Vec<bool>,
     /// The air's share of the solve (the bubble's pressure correction, the pockets' rims).
     air: SolveShare,
+    /// The particles near a landing this step (`lying.rs`), each one's end-of-step surface
+    /// normal where it lies on one, and those whose pressure force turned to it (listed and
+    /// marked), with their pressure force per pascal at the step's start.
+    near_landing: Vec<u32>,
+    lying: Vec<Option<Vec3>>,
+    turned: Vec<u32>,
+    is_turned: Vec<bool>,
+    start_g: Vec<Vec3>,
     /// The air's regions.
     regions: Regions,
     /// Each region's gas-spring term `dt^2 k_r`, and scratch for its dot product.
@@ -188,6 +197,11 @@ impl Implicit {
             per_pascal: Soa::zeros(n),
             landed: vec![false; n],
             air: SolveShare::new(n),
+            near_landing: Vec::new(),
+            lying: Vec::new(),
+            turned: Vec::new(),
+            is_turned: Vec::new(),
+            start_g: Vec::new(),
             regions: Regions::default(),
             gas: Vec::new(),
             dots: Vec::new(),
@@ -246,6 +260,11 @@ impl Implicit {
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
             + self.inertia.capacity() * 8
             + self.landed.capacity()
+            + self.near_landing.capacity() * 4
+            + self.lying.capacity() * std::mem::size_of::<Option<Vec3>>()
+            + self.turned.capacity() * 4
+            + self.is_turned.capacity()
+            + self.start_g.capacity() * std::mem::size_of::<Vec3>()
             + self.air.heap_bytes()
             + (self.kept.av_rows.capacity() + self.kept.row_mark.capacity()) * 4
             + self.prev_constraints.capacity() * std::mem::size_of::<Constraint>()
@@ -270,6 +289,7 @@ impl Implicit {
         let surfaces = self.place_colliders(model, fused.start, dt);
         self.right_hand_side(model, state, dt);
         self.constrain(model, state, control, &surfaces, dt);
+        self.begin_lying(model, state);
         // `System` borrows the regions; the rest of `self` is used mutably below.
         let regions = std::mem::take(&mut self.regions);
         let sys = System {
@@ -278,6 +298,7 @@ impl Implicit {
             dt2: dt * dt,
             regions: &regions,
         };
+        self.turn_lying(&sys, false, model, state, &surfaces, dt, false);
         self.prepare_matrix(&sys);
         self.air.start(
             model,
@@ -291,7 +312,7 @@ impl Implicit {
         let budget = Budget::of(self.budget);
         self.solve_contacts(&sys, model, state, &surfaces, dt, budget);
         let shifted = self.solve_pressure(&sys, model, state, dt, budget);
-        self.settle_contacts(&sys, model, state, dt, budget, shifted);
+        self.settle_contacts(&sys, model, state, &surfaces, dt, budget, shifted);
         self.total_iterations += self.iterations as u64;
         self.regions = regions;
         self.hand_forces(state, control, dt);
@@ -464,6 +485,7 @@ impl Implicit {
                 break;
             }
             let mut changed = self.update_contacts(model, state, surfaces, dt);
+            changed |= self.turn_lying(sys, true, model, state, surfaces, dt, false);
             changed |= self.air.correct_bubble(
                 model,
                 &state.x,
@@ -532,11 +554,13 @@ impl Implicit {
     /// once more. Without it the held `air-400` (1/600 s) crept: its rim slid inwards by 0.8 mm
     /// in 0.37 s, ratcheted by the pressure's few pascals from step to step, and its contact
     /// fraction flickered between 0.415 and 0.45 (the explicit integrator's stays at 0.457).
+    #[allow(clippy::too_many_arguments)] // the step's pieces
     fn settle_contacts(
         &mut self,
         sys: &System<'_>,
         model: &Model,
         state: &State,
+        surfaces: &[Surface],
         dt: Real,
         budget: Budget,
         shifted: bool,
@@ -547,6 +571,9 @@ impl Implicit {
             // those of the step's start, and `pockets-bubbles` and `pockets-merge` blew up at
             // 1/60 s.)
             let mut changed = self.recheck_contacts(state, dt);
+            // Its landings are left to the end-of-step projection: where the cloth would land
+            // with its whole stencil, its pressure turns as a contact's would.
+            changed |= self.turn_lying(sys, true, model, state, surfaces, dt, true);
             changed |= self.air.correct_rims(
                 model,
                 sys.regions,
@@ -559,6 +586,8 @@ impl Implicit {
                 self.solve_and_apply(sys, budget.tolerance);
             }
         } else if shifted && self.recheck_contacts(state, dt) {
+            // Released contacts give their neighbours' pressure its start direction back.
+            self.turn_lying(sys, true, model, state, surfaces, dt, false);
             self.solve_and_apply(sys, budget.tolerance);
         }
         // A slide the last solve moved against its direction would have its friction push it
