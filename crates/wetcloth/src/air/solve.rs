@@ -82,6 +82,8 @@ impl SolveShare {
         };
         self.miss = 0.0;
         self.shift = Relaxation::default();
+        // Nothing applied to any rim yet (`applied` reads every particle's).
+        self.rim_applied.fill(0.0);
         // The bubble's volume now (m^3): measured once, the miss is measured after each solve.
         self.start_volume = match model.sticking {
             Some(plane) if self.stiffness > 0.0 => {
@@ -89,6 +91,17 @@ impl SolveShare {
             }
             _ => 0.0,
         };
+    }
+
+    /// The pressure difference (Pa) this share has added so far this step to particle `k`'s
+    /// right-hand side (as `dp g_k dt`): the bubble's shift, and a rim's share of its pockets.
+    pub(crate) fn applied(&self, regions: &Regions, k: usize) -> Real {
+        let shift = if self.corrects_bubble() && regions.of(k).is_some() {
+            -self.stiffness * self.miss
+        } else {
+            0.0
+        };
+        shift + self.rim_applied.get(k).copied().unwrap_or(0.0)
     }
 
     /// Whether the solve predicts the thesis bubble's pressure (and so corrects it).

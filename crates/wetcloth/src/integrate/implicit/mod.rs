@@ -55,6 +55,7 @@
 mod caches;
 mod contacts;
 mod gas;
+mod lying;
 mod matrix;
 mod solver;
 mod springs;
@@ -128,12 +129,23 @@ pub(crate) struct Implicit {
     landed: Vec<bool>,
     /// The air's share of the solve (the bubble's pressure correction, the pockets' rims).
     air: SolveShare,
+    /// The particles near a landing this step (`lying.rs`), each one's end-of-step surface
+    /// normal where it lies on one, and those whose pressure force turned to it (listed and
+    /// marked), with their pressure force per pascal at the step's start.
+    near_landing: Vec<u32>,
+    lying: Vec<Option<Vec3>>,
+    turned: Vec<u32>,
+    is_turned: Vec<bool>,
+    start_g: Vec<Vec3>,
     /// The air's regions.
     regions: Regions,
     /// Each region's gas-spring term `dt^2 k_r`, and scratch for its dot product.
     gas: Vec<Real>,
     dots: Vec<Real>,
     constraints: Vec<Constraint>,
+    /// The velocity (m/s) of the surface each contact of `constraints` lies on, indexed like
+    /// them: only where a collider moves (empty otherwise: every surface still).
+    surface_u: Vec<Vec3>,
     /// The particles with a free direction in the current solve.
     active: Vec<u32>,
     /// Mass times `1 + dt c`, kg, per particle.
@@ -188,10 +200,16 @@ impl Implicit {
             per_pascal: Soa::zeros(n),
             landed: vec![false; n],
             air: SolveShare::new(n),
+            near_landing: Vec::new(),
+            lying: Vec::new(),
+            turned: Vec::new(),
+            is_turned: Vec::new(),
+            start_g: Vec::new(),
             regions: Regions::default(),
             gas: Vec::new(),
             dots: Vec::new(),
             constraints: vec![Constraint::Free; n],
+            surface_u: Vec::new(),
             active: Vec::with_capacity(n),
             inertia: vec![0.0; n],
             rhs: Soa::zeros(n),
@@ -244,8 +262,14 @@ impl Implicit {
             + self.mg.heap_bytes()
             + self.woodbury.heap_bytes()
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
+            + self.surface_u.capacity() * std::mem::size_of::<Vec3>()
             + self.inertia.capacity() * 8
             + self.landed.capacity()
+            + self.near_landing.capacity() * 4
+            + self.lying.capacity() * std::mem::size_of::<Option<Vec3>>()
+            + self.turned.capacity() * 4
+            + self.is_turned.capacity()
+            + self.start_g.capacity() * std::mem::size_of::<Vec3>()
             + self.air.heap_bytes()
             + (self.kept.av_rows.capacity() + self.kept.row_mark.capacity()) * 4
             + self.prev_constraints.capacity() * std::mem::size_of::<Constraint>()
@@ -270,6 +294,7 @@ impl Implicit {
         let surfaces = self.place_colliders(model, fused.start, dt);
         self.right_hand_side(model, state, dt);
         self.constrain(model, state, control, &surfaces, dt);
+        self.begin_lying(model, state);
         // `System` borrows the regions; the rest of `self` is used mutably below.
         let regions = std::mem::take(&mut self.regions);
         let sys = System {
@@ -278,6 +303,7 @@ impl Implicit {
             dt2: dt * dt,
             regions: &regions,
         };
+        self.turn_lying(&sys, false, model, state, &surfaces, dt, false);
         self.prepare_matrix(&sys);
         self.air.start(
             model,
@@ -291,7 +317,7 @@ impl Implicit {
         let budget = Budget::of(self.budget);
         self.solve_contacts(&sys, model, state, &surfaces, dt, budget);
         let shifted = self.solve_pressure(&sys, model, state, dt, budget);
-        self.settle_contacts(&sys, model, state, dt, budget, shifted);
+        self.settle_contacts(&sys, model, state, &surfaces, dt, budget, shifted);
         self.total_iterations += self.iterations as u64;
         self.regions = regions;
         self.hand_forces(state, control, dt);
@@ -384,6 +410,11 @@ impl Implicit {
     ) {
         std::mem::swap(&mut self.constraints, &mut self.prev_constraints);
         self.constraints.fill(Constraint::Free);
+        if surfaces.is_empty() {
+            self.surface_u.clear();
+        } else {
+            self.surface_u.resize(state.len(), Vec3::ZERO);
+        }
         for (k, target) in control.active() {
             self.constraints[k] = Constraint::Fixed((target - state.x.get(k)) / dt);
         }
@@ -392,12 +423,13 @@ impl Implicit {
                 continue;
             }
             let (x, v) = (state.x.get(k), self.r.get(k));
-            let c = contact_constraint(model, surfaces, k, x, v, dt, state.contact[k]);
-            let Constraint::Stick { n, vn, mu, u } = c else {
+            let (c, u) = contact_constraint(model, surfaces, k, x, v, dt, state.contact[k]);
+            self.set_surface_velocity(k, u);
+            let Constraint::Stick { n, vn, mu } = c else {
                 self.constraints[k] = c;
                 continue;
             };
-            let vt = c.slip(v);
+            let vt = c.slip(v, u);
             let speed = vt.length();
             self.constraints[k] = match state.slides[k] {
                 _ if speed <= SLIDE_EPSILON => c,
@@ -409,7 +441,6 @@ impl Implicit {
                     drag: f * dt / speed,
                     t: vt / speed,
                     kinetic: f * dt,
-                    u,
                 },
                 Slide::Drag(rate) => Constraint::Normal {
                     n,
@@ -418,7 +449,6 @@ impl Implicit {
                     drag: rate * dt,
                     t: Vec3::ZERO,
                     kinetic: 0.0,
-                    u,
                 },
             };
         }
@@ -464,6 +494,7 @@ impl Implicit {
                 break;
             }
             let mut changed = self.update_contacts(model, state, surfaces, dt);
+            changed |= self.turn_lying(sys, true, model, state, surfaces, dt, false);
             changed |= self.air.correct_bubble(
                 model,
                 &state.x,
@@ -532,11 +563,13 @@ impl Implicit {
     /// once more. Without it the held `air-400` (1/600 s) crept: its rim slid inwards by 0.8 mm
     /// in 0.37 s, ratcheted by the pressure's few pascals from step to step, and its contact
     /// fraction flickered between 0.415 and 0.45 (the explicit integrator's stays at 0.457).
+    #[allow(clippy::too_many_arguments)] // the step's pieces
     fn settle_contacts(
         &mut self,
         sys: &System<'_>,
         model: &Model,
         state: &State,
+        surfaces: &[Surface],
         dt: Real,
         budget: Budget,
         shifted: bool,
@@ -547,6 +580,9 @@ impl Implicit {
             // those of the step's start, and `pockets-bubbles` and `pockets-merge` blew up at
             // 1/60 s.)
             let mut changed = self.recheck_contacts(state, dt);
+            // Its landings are left to the end-of-step projection: where the cloth would land
+            // with its whole stencil, its pressure turns as a contact's would.
+            changed |= self.turn_lying(sys, true, model, state, surfaces, dt, true);
             changed |= self.air.correct_rims(
                 model,
                 sys.regions,
@@ -559,6 +595,8 @@ impl Implicit {
                 self.solve_and_apply(sys, budget.tolerance);
             }
         } else if shifted && self.recheck_contacts(state, dt) {
+            // Released contacts give their neighbours' pressure its start direction back.
+            self.turn_lying(sys, true, model, state, surfaces, dt, false);
             self.solve_and_apply(sys, budget.tolerance);
         }
         // A slide the last solve moved against its direction would have its friction push it
@@ -616,9 +654,10 @@ impl Implicit {
             let x = state.x.get(k);
             let v = self.v.get(k);
             let mut touched = false;
-            if let Constraint::Normal { n: normal, u, .. }
-            | Constraint::Stick { n: normal, u, .. } = self.constraints[k]
+            if let Constraint::Normal { n: normal, .. } | Constraint::Stick { n: normal, .. } =
+                self.constraints[k]
             {
+                let u = self.surface_velocity(k);
                 // Touching while the surface pushes.
                 let lambda = self.kept.av.get(k) - self.rhs.get(k);
                 touched = lambda.dot(normal) > 0.0;

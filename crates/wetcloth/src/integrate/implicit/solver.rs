@@ -174,7 +174,10 @@ impl Implicit {
         }
         for k in 0..n {
             let c = self.constraints[k];
-            self.v.set(k, c.filter(self.v.get(k)) + c.value());
+            self.v.set(
+                k,
+                c.filter(self.v.get(k)) + c.value(self.surface_velocity(k)),
+            );
             if matches!(c, Constraint::Free | Constraint::Normal { .. }) {
                 active.push(k as u32);
             }
@@ -186,9 +189,10 @@ impl Implicit {
         for &k in &active {
             let k = k as usize;
             let c = self.constraints[k];
-            let b = c.filter(self.rhs.get(k)) + c.friction();
+            let friction = c.friction(self.surface_velocity(k));
+            let b = c.filter(self.rhs.get(k)) + friction;
             bb += b.length_squared();
-            let r = c.filter(self.rhs.get(k) - self.q.get(k)) + c.friction();
+            let r = c.filter(self.rhs.get(k) - self.q.get(k)) + friction;
             self.r.set(k, r);
             rr += r.length_squared();
         }
