@@ -41,7 +41,7 @@ impl Implicit {
         if !pressed || model.colliders.is_empty() || state.contact.iter().all(|&c| c) {
             return;
         }
-        let (nx, nz) = (model.grid.nx, model.grid.nz);
+        let (nx, nz) = (model.grid().nx, model.grid().nz);
         let n = nx * nz;
         self.lying.resize(n, None);
         self.is_turned.resize(n, false);
@@ -101,7 +101,7 @@ impl Implicit {
         if self.near_landing.is_empty() {
             return false;
         }
-        let (nx, nz) = (model.grid.nx, model.grid.nz);
+        let (nx, nz) = (model.grid().nx, model.grid().nz);
         // Each particle's end-of-step surface normal, near a landing (`None` elsewhere: there
         // the constraint tells).
         let near = std::mem::take(&mut self.near_landing);
