@@ -36,10 +36,9 @@ pub(super) enum Constraint {
     /// tangent plane, friction that can slow a slide to rest but never reverse it and never do
     /// positive work. A particle landing sliding starts as one too.
     ///
-    /// On a moving collider the slide, its direction `t` and its drag are relative to the
-    /// surface, whose velocity `u` (m/s; its normal part is in `vn`) is kept beside the
-    /// constraints ([`Implicit::surface_velocity`]), so a moving collider carries the cloth by
-    /// friction (the drag's share of it is in [`Constraint::friction`]).
+    /// `u` (m/s) is the surface's velocity (zero on a still collider; its normal part is in `vn`): the
+    /// slide, its direction `t` and its drag are relative to the surface, so a moving collider
+    /// carries the cloth by friction (the drag's share of it is in [`Constraint::friction`]).
     Normal {
         n: Vec3,
         vn: Real,
@@ -47,19 +46,20 @@ pub(super) enum Constraint {
         drag: Real,
         t: Vec3,
         kinetic: Real,
+        u: Vec3,
     },
     /// A contact held by static friction: its velocity is `n vn` plus the surface's tangential
-    /// velocity (`u`, kept beside the constraints; zero on a still collider), as long as the
-    /// force that holds it stays inside the friction cone.
-    Stick { n: Vec3, vn: Real, mu: Real },
+    /// velocity (`u`, m/s, the surface's whole velocity; zero on a still collider), as long as
+    /// the force that holds it stays inside the friction cone.
+    Stick {
+        n: Vec3,
+        vn: Real,
+        mu: Real,
+        u: Vec3,
+    },
     /// Its velocity is fixed: a hand.
     Fixed(Vec3),
 }
-
-// Every pass over the particles reads their constraints: with the surface's velocity in every
-// contact a constraint took 112 bytes instead of 88, and a pressed-flat cloth's step was about
-// 15 % slower than before moving colliders (docs/performance.md). It is kept beside them.
-const _: () = assert!(std::mem::size_of::<Constraint>() == 88);
 
 impl Constraint {
     /// `v` with the constrained directions removed.
@@ -83,34 +83,36 @@ impl Constraint {
     }
 
     /// The kinetic friction impulse of a slide that does not depend on its speed (N s):
-    /// `kinetic` against its direction `t`, and on a surface moving at `u` (m/s) the drag's pull
-    /// towards that velocity (the drag acts on the velocity relative to it).
+    /// `kinetic` against its direction `t`, and on a moving surface the drag's pull towards the
+    /// surface's velocity `u` (the drag acts on the velocity relative to it).
     #[inline]
-    pub(super) fn friction(self, u: Vec3) -> Vec3 {
+    pub(super) fn friction(self) -> Vec3 {
         match self {
-            Constraint::Normal { t, kinetic, .. } if u != Vec3::ZERO => -t * kinetic + self.drag(u),
+            Constraint::Normal { t, kinetic, u, .. } if u != Vec3::ZERO => {
+                -t * kinetic + self.drag(u)
+            }
             Constraint::Normal { t, kinetic, .. } => -t * kinetic,
             _ => Vec3::ZERO,
         }
     }
 
-    /// The constrained part of the velocity, on a surface moving at `u` (m/s).
+    /// The constrained part of the velocity.
     #[inline]
-    pub(super) fn value(self, u: Vec3) -> Vec3 {
+    pub(super) fn value(self) -> Vec3 {
         match self {
             Constraint::Free => Vec3::ZERO,
-            Constraint::Stick { n, vn, .. } if u != Vec3::ZERO => n * vn + u - n * n.dot(u),
+            Constraint::Stick { n, vn, u, .. } if u != Vec3::ZERO => n * vn + u - n * n.dot(u),
             Constraint::Normal { n, vn, .. } | Constraint::Stick { n, vn, .. } => n * vn,
             Constraint::Fixed(v) => v,
         }
     }
 
-    /// The tangential velocity of `v` relative to the surface of this contact, moving at `u`
-    /// (m/s): `v` without its normal part, less the surface's velocity.
+    /// The tangential velocity of `v` relative to the surface of this contact (m/s): `v`
+    /// without its normal part, less the surface's velocity.
     #[inline]
-    pub(super) fn slip(self, v: Vec3, u: Vec3) -> Vec3 {
+    pub(super) fn slip(self, v: Vec3) -> Vec3 {
         match self {
-            Constraint::Normal { n, .. } | Constraint::Stick { n, .. } => {
+            Constraint::Normal { n, u, .. } | Constraint::Stick { n, u, .. } => {
                 let vt = v - n * n.dot(v);
                 if u == Vec3::ZERO {
                     vt
@@ -127,7 +129,7 @@ impl Constraint {
 /// within the step, its kinetic impulse `kinetic` (N s), at the tangential speed `speed` (m/s):
 /// a drag-only slide (see [`Constraint::Normal`]), its drag giving that impulse at that speed.
 pub(super) fn stopped_slide(
-    (n, vn, mu): (Vec3, Real, Real),
+    (n, vn, mu, u): (Vec3, Real, Real, Vec3),
     kinetic: Real,
     speed: Real,
 ) -> Constraint {
@@ -138,6 +140,7 @@ pub(super) fn stopped_slide(
         drag: kinetic / speed.max(SLIDE_EPSILON),
         t: Vec3::ZERO,
         kinetic: 0.0,
+        u,
     }
 }
 
@@ -267,8 +270,8 @@ pub(super) fn contact_constraint(
     v: Vec3,
     dt: Real,
     touching: bool,
-) -> (Constraint, Vec3) {
-    let mut best = (Constraint::Free, Vec3::ZERO);
+) -> Constraint {
+    let mut best = Constraint::Free;
     let mut nearest = Real::INFINITY;
     let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
     each_surface(model, surfaces, x, dt, |c, _, u| {
@@ -278,7 +281,7 @@ pub(super) fn contact_constraint(
         let reach = (-(v - u).dot(n)).max(0.0) * dt;
         if gap <= skin.max(reach) && gap < nearest {
             nearest = gap;
-            best = (stick(n, gap, dt, c.friction * scale, u), u);
+            best = stick(n, gap, dt, c.friction * scale, u);
         }
     });
     best
@@ -293,19 +296,21 @@ pub(super) fn stick(n: Vec3, gap: Real, dt: Real, mu: Real, u: Vec3) -> Constrai
             n,
             vn: -gap / dt,
             mu,
+            u,
         }
     } else {
         Constraint::Stick {
             n,
             vn: n.dot(u) - gap / dt,
             mu,
+            u,
         }
     }
 }
 
 /// The contact constraint of a free particle moving from `x` to `to` in a step of `dt` s, if it
-/// would end inside a collider, whether the move took it through the surface (not merely
-/// within its radius of it), and the surface's velocity there (m/s).
+/// would end inside a collider, and whether the move took it through the surface (not merely
+/// within its radius of it).
 pub(super) fn landing_constraint(
     model: &Model,
     surfaces: &[Surface],
@@ -313,7 +318,7 @@ pub(super) fn landing_constraint(
     x: Vec3,
     to: Vec3,
     dt: Real,
-) -> Option<(Constraint, bool, Vec3)> {
+) -> Option<(Constraint, bool)> {
     let scale = model.friction_scale.as_ref().map_or(1.0, |s| s[k]);
     let mut best = None;
     let mut deepest = 0.0;
@@ -331,31 +336,13 @@ pub(super) fn landing_constraint(
         if depth > deepest {
             deepest = depth;
             let gap = c.distance(x).0 - model.radius;
-            best = Some((stick(n, gap, dt, c.friction * scale, u), d < 0.0, u));
+            best = Some((stick(n, gap, dt, c.friction * scale, u), d < 0.0));
         }
     });
     best
 }
 
 impl Implicit {
-    /// The velocity (m/s) of the surface particle `k`'s contact lies on: kept beside the
-    /// constraints, not in them (each contact carrying it made `Constraint` 128 bytes instead
-    /// of 104 and a pressed-flat cloth's step 15 % slower); empty, so zero, where no collider
-    /// moves.
-    #[inline(always)]
-    pub(super) fn surface_velocity(&self, k: usize) -> Vec3 {
-        self.surface_u.get(k).copied().unwrap_or(Vec3::ZERO)
-    }
-
-    /// Records the velocity `u` (m/s) of the surface particle `k`'s new contact lies on (kept
-    /// only where a collider moves).
-    #[inline]
-    pub(super) fn set_surface_velocity(&mut self, k: usize, u: Vec3) {
-        if let Some(s) = self.surface_u.get_mut(k) {
-            *s = u;
-        }
-    }
-
     /// The contact of a particle that the last solve found landing on a collider (`stick`, its
     /// landing constraint), with Coulomb friction for the impact (thesis eq. 3.5, as the
     /// explicit step's collision response has it): stopping its normal velocity takes an
@@ -367,13 +354,13 @@ impl Implicit {
     /// any size, and a particle landing in a step's last solve stayed held through the step
     /// whatever pulled it: a lifted cloth that sinks onto the table as it is pulled in was pinned
     /// there, ring by ring.
-    pub(super) fn landing_friction(&self, k: usize, stick: Constraint, u: Vec3) -> Constraint {
-        let Constraint::Stick { n, vn, mu } = stick else {
+    pub(super) fn landing_friction(&self, k: usize, stick: Constraint) -> Constraint {
+        let Constraint::Stick { n, vn, mu, u } = stick else {
             return stick;
         };
         let v = self.v.get(k);
         let stopped = (vn - v.dot(n)).max(0.0);
-        let vt = stick.slip(v, u).length();
+        let vt = stick.slip(v).length();
         let held = mu * stopped;
         if held >= vt {
             stick
@@ -385,6 +372,7 @@ impl Implicit {
                 drag: self.inertia[k] * held / (vt - held),
                 t: Vec3::ZERO,
                 kinetic: 0.0,
+                u,
             }
         }
     }
@@ -401,7 +389,7 @@ impl Implicit {
     pub(super) fn held_change(
         &self,
         k: usize,
-        (n, vn, mu): (Vec3, Real, Real),
+        (n, vn, mu, u): (Vec3, Real, Real, Vec3),
         state: &State,
         dt: Real,
     ) -> Option<Constraint> {
@@ -415,10 +403,11 @@ impl Implicit {
             return None;
         }
         let v0 = state.velocity(k, dt);
-        let vt = self.constraints[k]
-            .slip(v0, self.surface_velocity(k))
-            .length()
-            .max(self.slip_speed(k, n, shear - mu * push));
+        let vt =
+            self.constraints[k]
+                .slip(v0)
+                .length()
+                .max(self.slip_speed(k, n, shear - mu * push));
         Some(Constraint::Normal {
             n,
             vn,
@@ -426,6 +415,7 @@ impl Implicit {
             drag: mu * push / vt.max(SLIDE_EPSILON),
             t: (n * push - lambda) / shear,
             kinetic: mu * push,
+            u,
         })
     }
 
@@ -494,7 +484,7 @@ impl Implicit {
     pub(super) fn slide_change(
         &self,
         k: usize,
-        (n, vn, mu): (Vec3, Real, Real),
+        (n, vn, mu, u): (Vec3, Real, Real, Vec3),
         (drag, t, kinetic): (Real, Vec3, Real),
         vt: Vec3,
         push: Real,
@@ -511,6 +501,7 @@ impl Implicit {
                     drag: new,
                     t,
                     kinetic,
+                    u,
                 },
                 true,
             ));
@@ -522,7 +513,7 @@ impl Implicit {
         let vt = vt - n * n.dot(vt);
         let speed = vt.length();
         if vt.dot(t) <= 0.0 || speed <= STOPPED_SPEED {
-            return Some((stopped_slide((n, vn, mu), kinetic, speed), true));
+            return Some((stopped_slide((n, vn, mu, u), kinetic, speed), true));
         }
         let dir = vt / speed;
         let moved = (dir * friction - t * kinetic).length() > 0.25 * friction.max(kinetic);
@@ -533,6 +524,7 @@ impl Implicit {
             drag: friction / speed.max(SLIDE_EPSILON),
             t: dir,
             kinetic: friction,
+            u,
         };
         Some((c, moved))
     }
@@ -563,6 +555,7 @@ impl Implicit {
                     drag,
                     t,
                     kinetic,
+                    u,
                 } => {
                     // The normal impulse: the residual's normal part (friction is tangential).
                     let v = self.v.get(k);
@@ -574,9 +567,9 @@ impl Implicit {
                         changed = true;
                     } else if let Some(c) = self.slide_change(
                         k,
-                        (normal, vn, mu),
+                        (normal, vn, mu, u),
                         (drag, t, kinetic),
-                        c.slip(v, self.surface_velocity(k)),
+                        c.slip(v),
                         push,
                     ) {
                         self.constraints[k] = c.0;
@@ -587,18 +580,21 @@ impl Implicit {
                 Constraint::Free => {
                     let x = state.x.get(k);
                     let to = x + self.v.get(k) * dt;
-                    if let Some((c, through, u)) = landing_constraint(model, surfaces, k, x, to, dt)
-                    {
-                        self.set_surface_velocity(k, u);
-                        self.constraints[k] = self.landing_friction(k, c, u);
+                    if let Some((c, through)) = landing_constraint(model, surfaces, k, x, to, dt) {
+                        self.constraints[k] = self.landing_friction(k, c);
                         self.precondition_one(k);
                         self.landed[k] = through;
                         changed = true;
                     }
                 }
-                Constraint::Stick { n: normal, vn, mu } => {
+                Constraint::Stick {
+                    n: normal,
+                    vn,
+                    mu,
+                    u,
+                } => {
                     // Inside the friction cone, or sliding, or pulling free.
-                    if let Some(c) = self.held_change(k, (normal, vn, mu), state, dt) {
+                    if let Some(c) = self.held_change(k, (normal, vn, mu, u), state, dt) {
                         self.constraints[k] = c;
                         self.precondition_one(k);
                         changed = true;
@@ -622,12 +618,13 @@ impl Implicit {
                 mu,
                 t,
                 kinetic,
+                u,
                 ..
             } = c
             {
-                let vt = c.slip(self.v.get(k), self.surface_velocity(k));
+                let vt = c.slip(self.v.get(k));
                 if t != Vec3::ZERO && vt.dot(t) <= 0.0 {
-                    self.constraints[k] = stopped_slide((n, vn, mu), kinetic, vt.length());
+                    self.constraints[k] = stopped_slide((n, vn, mu, u), kinetic, vt.length());
                     self.precondition_one(k);
                     any = true;
                 }
@@ -649,8 +646,8 @@ impl Implicit {
                     self.precondition_one(k);
                     changed = true;
                 }
-                Constraint::Stick { n, vn, mu } => {
-                    if let Some(c) = self.held_change(k, (n, vn, mu), state, dt) {
+                Constraint::Stick { n, vn, mu, u } => {
+                    if let Some(c) = self.held_change(k, (n, vn, mu, u), state, dt) {
                         self.constraints[k] = c;
                         self.precondition_one(k);
                         changed = true;

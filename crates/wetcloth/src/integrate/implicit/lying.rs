@@ -74,7 +74,7 @@ impl Implicit {
                 let x = state.x.get(k);
                 let to = x + self.v.get(k) * dt;
                 match landing_constraint(model, surfaces, k, x, to, dt)? {
-                    (Constraint::Stick { n, .. }, ..) => Some(n),
+                    (Constraint::Stick { n, .. }, _) => Some(n),
                     _ => None,
                 }
             }

@@ -143,9 +143,6 @@ pub(crate) struct Implicit {
     gas: Vec<Real>,
     dots: Vec<Real>,
     constraints: Vec<Constraint>,
-    /// The velocity (m/s) of the surface each contact of `constraints` lies on, indexed like
-    /// them: only where a collider moves (empty otherwise: every surface still).
-    surface_u: Vec<Vec3>,
     /// The particles with a free direction in the current solve.
     active: Vec<u32>,
     /// Mass times `1 + dt c`, kg, per particle.
@@ -209,7 +206,6 @@ impl Implicit {
             gas: Vec::new(),
             dots: Vec::new(),
             constraints: vec![Constraint::Free; n],
-            surface_u: Vec::new(),
             active: Vec::with_capacity(n),
             inertia: vec![0.0; n],
             rhs: Soa::zeros(n),
@@ -262,7 +258,6 @@ impl Implicit {
             + self.mg.heap_bytes()
             + self.woodbury.heap_bytes()
             + self.constraints.capacity() * std::mem::size_of::<Constraint>()
-            + self.surface_u.capacity() * std::mem::size_of::<Vec3>()
             + self.inertia.capacity() * 8
             + self.landed.capacity()
             + self.near_landing.capacity() * 4
@@ -410,11 +405,6 @@ impl Implicit {
     ) {
         std::mem::swap(&mut self.constraints, &mut self.prev_constraints);
         self.constraints.fill(Constraint::Free);
-        if surfaces.is_empty() {
-            self.surface_u.clear();
-        } else {
-            self.surface_u.resize(state.len(), Vec3::ZERO);
-        }
         for (k, target) in control.active() {
             self.constraints[k] = Constraint::Fixed((target - state.x.get(k)) / dt);
         }
@@ -423,13 +413,12 @@ impl Implicit {
                 continue;
             }
             let (x, v) = (state.x.get(k), self.r.get(k));
-            let (c, u) = contact_constraint(model, surfaces, k, x, v, dt, state.contact[k]);
-            self.set_surface_velocity(k, u);
-            let Constraint::Stick { n, vn, mu } = c else {
+            let c = contact_constraint(model, surfaces, k, x, v, dt, state.contact[k]);
+            let Constraint::Stick { n, vn, mu, u } = c else {
                 self.constraints[k] = c;
                 continue;
             };
-            let vt = c.slip(v, u);
+            let vt = c.slip(v);
             let speed = vt.length();
             self.constraints[k] = match state.slides[k] {
                 _ if speed <= SLIDE_EPSILON => c,
@@ -441,6 +430,7 @@ impl Implicit {
                     drag: f * dt / speed,
                     t: vt / speed,
                     kinetic: f * dt,
+                    u,
                 },
                 Slide::Drag(rate) => Constraint::Normal {
                     n,
@@ -449,6 +439,7 @@ impl Implicit {
                     drag: rate * dt,
                     t: Vec3::ZERO,
                     kinetic: 0.0,
+                    u,
                 },
             };
         }
@@ -654,10 +645,9 @@ impl Implicit {
             let x = state.x.get(k);
             let v = self.v.get(k);
             let mut touched = false;
-            if let Constraint::Normal { n: normal, .. } | Constraint::Stick { n: normal, .. } =
-                self.constraints[k]
+            if let Constraint::Normal { n: normal, u, .. }
+            | Constraint::Stick { n: normal, u, .. } = self.constraints[k]
             {
-                let u = self.surface_velocity(k);
                 // Touching while the surface pushes.
                 let lambda = self.kept.av.get(k) - self.rhs.get(k);
                 touched = lambda.dot(normal) > 0.0;

@@ -174,10 +174,7 @@ impl Implicit {
         }
         for k in 0..n {
             let c = self.constraints[k];
-            self.v.set(
-                k,
-                c.filter(self.v.get(k)) + c.value(self.surface_velocity(k)),
-            );
+            self.v.set(k, c.filter(self.v.get(k)) + c.value());
             if matches!(c, Constraint::Free | Constraint::Normal { .. }) {
                 active.push(k as u32);
             }
@@ -189,10 +186,9 @@ impl Implicit {
         for &k in &active {
             let k = k as usize;
             let c = self.constraints[k];
-            let friction = c.friction(self.surface_velocity(k));
-            let b = c.filter(self.rhs.get(k)) + friction;
+            let b = c.filter(self.rhs.get(k)) + c.friction();
             bb += b.length_squared();
-            let r = c.filter(self.rhs.get(k) - self.q.get(k)) + friction;
+            let r = c.filter(self.rhs.get(k) - self.q.get(k)) + c.friction();
             self.r.set(k, r);
             rr += r.length_squared();
         }
