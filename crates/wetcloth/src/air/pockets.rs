@@ -53,7 +53,7 @@ use super::{AirLoad, Timing};
 use crate::control::Control;
 use crate::math::{Real, Soa};
 use crate::measure::Measures;
-use crate::model::Model;
+use crate::model::{ClothMesh, Layout, Model};
 use crate::params::{AirParams, PressureSolve};
 use crate::state::State;
 
@@ -183,19 +183,36 @@ struct Scratch {
     keep_open: Vec<bool>,
 }
 
+/// What a resegmentation found of its regions, region by region: open to the room, room for
+/// air (m^3), cells, summed permeability of the cells (its mean times the cells), area (m^2).
+struct Regions {
+    open: Vec<bool>,
+    volume: Vec<Real>,
+    count: Vec<u32>,
+    kappa: Vec<Real>,
+    area: Vec<Real>,
+}
+
 impl Pockets {
     /// The pockets of the cloth at t = 0 in `state`: sealed where it touches, pockets of the
     /// enclosed air at atmospheric pressure, and the seeded pockets of `air.pockets` holding
     /// their amounts (at atmospheric pressure where [`lift_seeds`] shaped the cloth over them).
     pub(crate) fn new(air: &AirParams, model: &Model, state: &State, measures: &Measures) -> Self {
-        Self::at(air, model, &state.x, measures, &seeds_of(air, model.grid()))
+        let seed_of = match &model.grid {
+            Some(grid) => seeds_of(air, grid),
+            None => vec![NONE; model.len()],
+        };
+        Self::at(air, model, &state.x, measures, &seed_of)
     }
 
     /// [`Pockets::new`] for the cloth at `x` (m), measured in `measures`, each particle's seed
     /// in `seed_of` ([`seeds_of`]).
     fn at(air: &AirParams, model: &Model, x: &Soa, measures: &Measures, seed_of: &[u32]) -> Self {
-        let n = model.grid().len();
-        let cells = (model.grid().nx - 1) * (model.grid().nz - 1);
+        let n = model.len();
+        let cells = match model.layout() {
+            Layout::Grid(g) => (g.nx - 1) * (g.nz - 1),
+            Layout::Mesh(m, _) => m.triangles.len(),
+        };
         let mut p = Self {
             pockets: Vec::new(),
             sealed: vec![false; n],
@@ -343,12 +360,11 @@ impl Pockets {
         if self.surface {
             self.gaps(model, coast, pending.end);
             coast_cells.resize(self.cell_volume.len(), 0.0);
-            surface_cell_volumes(
-                model.grid(),
+            surface_volumes(
+                model,
                 coast,
                 &self.scratch.gap,
                 &self.scratch.normal,
-                model.radius,
                 &mut coast_cells,
             );
             coast_gap.extend(self.scratch.gap.iter().map(|g| g - model.radius));
@@ -367,7 +383,8 @@ impl Pockets {
         }
         let gap = |i: usize| coast_gap[i];
         let pa = air.atmospheric_pressure;
-        let s = model.area_per_particle;
+        // Each particle's area S (the uniform one on the grid).
+        let s_of = |i: usize| model.area(i);
         let first = if pending.first_step { 0.5 } else { 1.0 };
         let h_of = |i: usize| pending.dt * pending.dt / model.mass(i) * first;
         // Each pocket's coasting volume: its cells', plus the depth of its particles coasting
@@ -383,7 +400,7 @@ impl Pockets {
         for (i, &q) in self.particle_pocket.iter().enumerate() {
             let g = gap(i);
             if q != NONE && g < 0.0 && !held[i] {
-                base[q as usize] -= s * g;
+                base[q as usize] -= s_of(i) * g;
             }
         }
         // Each pocket's free particles, in index order.
@@ -402,7 +419,7 @@ impl Pockets {
             let volume = |p: Real| {
                 let (mut v, mut slope) = (base[q], 0.0);
                 for &i in &members[q] {
-                    let h = h_of(i);
+                    let (h, s) = (h_of(i), s_of(i));
                     let push = h * s * (p - pa);
                     let g = gap(i).max(0.0);
                     if push >= 0.0 || -push < g {
@@ -434,7 +451,32 @@ impl Pockets {
     /// sealed particle.
     fn spread(&mut self, model: &Model, pressures: &[Real]) {
         self.spread_bare = pressures.is_empty();
-        let (nx, nz) = (model.grid().nx, model.grid().nz);
+        let grid = match model.layout() {
+            Layout::Grid(grid) => grid,
+            Layout::Mesh(mesh, _) => {
+                for k in 0..model.len() {
+                    let q = self.particle_pocket[k];
+                    self.delta_p[k] = if q != NONE {
+                        pressures[q as usize]
+                    } else if self.sealed[k] {
+                        // The mean over the triangles around it, as the grid's cells.
+                        let around = mesh.triangles_of(k);
+                        let sum: Real = around
+                            .iter()
+                            .map(|&t| match self.cell_pocket[t as usize] {
+                                NONE => 0.0,
+                                cq => pressures[cq as usize],
+                            })
+                            .sum();
+                        sum / around.len().max(1) as Real - model.wet_adhesion * model.wetness[k]
+                    } else {
+                        0.0
+                    };
+                }
+                return;
+            }
+        };
+        let (nx, nz) = (grid.nx, grid.nz);
         for j in 0..nz {
             for i in 0..nx {
                 let k = j * nx + i;
@@ -498,7 +540,7 @@ impl Pockets {
         if self.sealed == self.previous_sealed {
             // The same sealed particles: the same regions and pockets, with their air (their
             // volumes are measured above); only the rims may have moved.
-            self.measure_rims(model.grid());
+            self.measure_rims(model);
         } else {
             self.spread_bare = false;
             self.resegment(air, model, false);
@@ -555,12 +597,11 @@ impl Pockets {
     /// surfaces.
     fn cell_volumes(&mut self, model: &Model, x: &Soa, measures: &Measures) {
         if self.surface {
-            surface_cell_volumes(
-                model.grid(),
+            surface_volumes(
+                model,
                 x,
                 &self.scratch.gap,
                 &self.scratch.normal,
-                model.radius,
                 &mut self.cell_volume,
             );
         } else {
@@ -614,7 +655,10 @@ impl Pockets {
     /// Finds the regions of the sealed state, and the new pockets with their air (see the
     /// module docs). `fresh`: at t = 0, every pocket takes the air it encloses.
     fn resegment(&mut self, air: &AirParams, model: &Model, fresh: bool) {
-        let grid = model.grid();
+        let grid = match model.layout() {
+            Layout::Grid(grid) => grid,
+            Layout::Mesh(mesh, _) => return self.resegment_mesh(air, model, mesh, fresh),
+        };
         let (nx, nz) = (grid.nx, grid.nz);
         let m = nx - 1;
         let cells = m * (nz - 1);
@@ -711,6 +755,186 @@ impl Pockets {
             kappa[r as usize] += 0.25
                 * (wet_kappa(k) + wet_kappa(k + 1) + wet_kappa(k + nx) + wet_kappa(k + nx + 1));
         }
+        let area: Vec<Real> = count.iter().map(|&c| Real::from(c) * cell_area).collect();
+        let found = Regions {
+            open,
+            volume,
+            count,
+            kappa,
+            area,
+        };
+        // A squeezed pocket's air goes to the nearest air within two cells, along the grid.
+        let near = |c: usize, reach: usize, out: &mut Vec<usize>| {
+            let (i, j, r) = ((c % m) as isize, (c / m) as isize, reach as isize);
+            for (di, dj) in [(-r, 0), (r, 0), (0, -r), (0, r)] {
+                let (a, b) = (i + di, j + dj);
+                if a >= 0 && b >= 0 && a < m as isize && b < (nz - 1) as isize {
+                    out.push(b as usize * m + a as usize);
+                }
+            }
+        };
+        let mut pockets = self.share_air(air, fresh, &found, near);
+        // Each unsealed particle's pocket (all its cells share one region), and the rims.
+        for j in 0..nz {
+            for i in 0..nx {
+                let k = j * nx + i;
+                self.particle_pocket[k] = NONE;
+                let cell = (i.min(m - 1), j.min(nz - 2));
+                let c = cell.1 * m + cell.0;
+                if !self.sealed[k] {
+                    let q = self.cell_pocket[c];
+                    self.particle_pocket[k] = q;
+                    if q != NONE {
+                        pockets[q as usize].particles += 1;
+                    }
+                }
+            }
+        }
+        self.pockets = pockets;
+        self.measure_rims(model);
+    }
+
+    /// [`Pockets::resegment`] on a mesh cloth: its triangles are the cells, air passes between
+    /// two across their shared edge unless both of its particles are sealed, and a region is
+    /// open where one of its triangles has a boundary edge with an unsealed particle.
+    fn resegment_mesh(&mut self, air: &AirParams, model: &Model, mesh: &ClothMesh, fresh: bool) {
+        let cells = mesh.triangles.len();
+        let sealed = &self.sealed;
+        let corner = |k: u32| !sealed[k as usize];
+        let air_cell = |t: usize| mesh.triangles[t].iter().any(|&k| corner(k));
+        let sc = &mut self.scratch;
+        sc.parent.clear();
+        sc.parent.extend(0..cells as u32);
+        fn find(parent: &mut [u32], mut a: u32) -> u32 {
+            while parent[a as usize] != a {
+                let up = parent[parent[a as usize] as usize];
+                parent[a as usize] = up;
+                a = up;
+            }
+            a
+        }
+        for (e, &[t, u]) in mesh.edge_faces.iter().enumerate() {
+            let [a, b] = mesh.edges[e];
+            if u == NONE || !(corner(a) || corner(b)) {
+                continue;
+            }
+            if air_cell(t as usize) && air_cell(u as usize) {
+                let (ra, rb) = (find(&mut sc.parent, t), find(&mut sc.parent, u));
+                // The smaller index is the root: canonical whatever the order.
+                sc.parent[ra.max(rb) as usize] = ra.min(rb);
+            }
+        }
+        sc.region.clear();
+        sc.region.resize(cells, NONE);
+        sc.root_region.clear();
+        sc.root_region.resize(cells, NONE);
+        let mut open: Vec<bool> = Vec::new();
+        for t in 0..cells {
+            if !air_cell(t) {
+                continue;
+            }
+            let root = find(&mut sc.parent, t as u32);
+            let r = match sc.root_region[root as usize] {
+                NONE => {
+                    let r = open.len() as u32;
+                    sc.root_region[root as usize] = r;
+                    open.push(false);
+                    r
+                }
+                r => r,
+            };
+            sc.region[t] = r;
+        }
+        for (e, &[t, u]) in mesh.edge_faces.iter().enumerate() {
+            let [a, b] = mesh.edges[e];
+            if u == NONE && (corner(a) || corner(b)) {
+                let r = sc.region[t as usize];
+                if r != NONE {
+                    open[r as usize] = true;
+                }
+            }
+        }
+        let regions = open.len();
+        let mut volume = vec![0.0; regions];
+        let mut count = vec![0u32; regions];
+        let mut kappa = vec![0.0; regions];
+        let mut area = vec![0.0; regions];
+        for t in 0..cells {
+            let r = sc.region[t];
+            if r == NONE {
+                continue;
+            }
+            let r = r as usize;
+            volume[r] += self.cell_volume[t].max(0.0);
+            count[r] += 1;
+            area[r] += mesh.triangle_area[t];
+            kappa[r] += mesh.triangles[t]
+                .iter()
+                .map(|&k| air.permeability_at(model.wetness[k as usize]))
+                .sum::<Real>()
+                / 3.0;
+        }
+        let found = Regions {
+            open,
+            volume,
+            count,
+            kappa,
+            area,
+        };
+        // A squeezed pocket's air goes to the triangles around its corners (one ring, then
+        // two).
+        let near = |t: usize, reach: usize, out: &mut Vec<usize>| {
+            let mut ring = vec![t];
+            for _ in 0..reach {
+                let mut next = Vec::new();
+                for &c in &ring {
+                    for &k in &mesh.triangles[c] {
+                        next.extend(mesh.triangles_of(k as usize).iter().map(|&u| u as usize));
+                    }
+                }
+                next.sort_unstable();
+                next.dedup();
+                ring = next;
+            }
+            out.extend(ring.into_iter().filter(|&c| c != t));
+        };
+        let mut pockets = self.share_air(air, fresh, &found, near);
+        for k in 0..model.len() {
+            self.particle_pocket[k] = NONE;
+            if !self.sealed[k] {
+                let q = self.cell_pocket[mesh.triangles_of(k)[0] as usize];
+                self.particle_pocket[k] = q;
+                if q != NONE {
+                    pockets[q as usize].particles += 1;
+                }
+            }
+        }
+        self.pockets = pockets;
+        self.measure_rims(model);
+    }
+
+    /// The air of the new regions (`found`, over the cells' regions in the scratch): each new
+    /// pocket's share of the old pockets and the air it encloses (see the module docs), its id,
+    /// and each cell's pocket and openness. `near(cell, reach, out)` lists the cells `reach`
+    /// steps from a cell, where a pocket squeezed flat pushes its air. Returns the new pockets
+    /// (their particle counts 0).
+    fn share_air(
+        &mut self,
+        air: &AirParams,
+        fresh: bool,
+        found: &Regions,
+        near: impl Fn(usize, usize, &mut Vec<usize>),
+    ) -> Vec<Pocket> {
+        let Regions {
+            open,
+            volume,
+            count,
+            kappa,
+            area,
+        } = found;
+        let regions = open.len();
+        let cells = self.cell_pocket.len();
+        let sc = &mut self.scratch;
         // Air of the new pockets: shares of the old pockets, plus newly enclosed air.
         sc.overlaps.clear();
         let mut enclosed = vec![0.0; regions];
@@ -771,15 +995,13 @@ impl Pockets {
                 continue;
             }
             let mut target = None;
-            'search: for reach in 1..=2isize {
+            let mut around = Vec::new();
+            'search: for reach in 1..=2 {
                 for c in (0..cells).filter(|&c| self.cell_pocket[c] == o as u32) {
-                    let (i, j) = ((c % m) as isize, (c / m) as isize);
-                    for (di, dj) in [(-reach, 0), (reach, 0), (0, -reach), (0, reach)] {
-                        let (a, b) = (i + di, j + dj);
-                        if a < 0 || b < 0 || a >= m as isize || b >= (nz - 1) as isize {
-                            continue;
-                        }
-                        let r = sc.region[b as usize * m + a as usize];
+                    around.clear();
+                    near(c, reach, &mut around);
+                    for &a in &around {
+                        let r = sc.region[a];
                         if r != NONE {
                             target = Some(r);
                             break 'search;
@@ -827,7 +1049,7 @@ impl Pockets {
                 amount: amount[r],
                 volume: volume[r],
                 pressure: air.atmospheric_pressure,
-                area: Real::from(count[r]) * cell_area,
+                area: area[r],
                 particles: 0,
                 permeability: kappa[r] / Real::from(count[r].max(1)),
                 rim_open: 0.0,
@@ -842,32 +1064,38 @@ impl Pockets {
                 region_pocket[r as usize]
             };
         }
-        // Each unsealed particle's pocket (all its cells share one region), and the rims.
-        for j in 0..nz {
-            for i in 0..nx {
-                let k = j * nx + i;
-                self.particle_pocket[k] = NONE;
-                let cell = (i.min(m - 1), j.min(nz - 2));
-                let c = cell.1 * m + cell.0;
-                if !self.sealed[k] {
-                    let q = self.cell_pocket[c];
-                    self.particle_pocket[k] = q;
-                    if q != NONE {
-                        pockets[q as usize].particles += 1;
-                    }
-                }
-            }
-        }
-        self.pockets = pockets;
-        self.measure_rims(grid);
+        pockets
     }
 
     /// The length of each pocket's rim close to opening: sealed corners of its cells that do
     /// not touch the surface.
-    fn measure_rims(&mut self, grid: &crate::model::Grid) {
+    fn measure_rims(&mut self, model: &Model) {
         if self.pockets.is_empty() {
             return;
         }
+        let grid = match model.layout() {
+            Layout::Grid(grid) => grid,
+            Layout::Mesh(mesh, _) => {
+                for p in &mut self.pockets {
+                    p.rim_open = 0.0;
+                }
+                for (c, &q) in self.cell_pocket.iter().enumerate() {
+                    if q == NONE {
+                        continue;
+                    }
+                    for k in mesh.triangles[c] {
+                        let k = k as usize;
+                        if self.sealed[k] && !self.touching[k] {
+                            // A corner's length, the side of its lumped area, shared by the
+                            // triangles around it.
+                            let share = mesh.area[k].sqrt() / mesh.triangles_of(k).len() as Real;
+                            self.pockets[q as usize].rim_open += share;
+                        }
+                    }
+                }
+                return;
+            }
+        };
         let (nx, m) = (grid.nx, grid.nx - 1);
         let spacing = 0.5 * (grid.dx + grid.dz);
         for p in &mut self.pockets {
@@ -1163,6 +1391,47 @@ pub fn surface_cell_volumes(
     out: &mut [Real],
 ) {
     let (nx, m) = (grid.nx, grid.nx - 1);
+    let frustum = |a: usize, b: usize, c: usize| frustum(x, gap, normal, radius, a, b, c);
+    for (c, v) in out.iter_mut().enumerate() {
+        let (i, j) = (c % m, c / m);
+        let a = j * nx + i;
+        let (b, cc, d) = (a + 1, a + nx, a + nx + 1);
+        // Counter-clockwise seen from above (+y for a cloth lying in x-z): (a, d, b), (a, c, d).
+        *v = frustum(a, d, b) + frustum(a, cc, d);
+    }
+}
+
+/// [`surface_cell_volumes`] for the cloth of `model`: the grid's cells, or a mesh's triangles
+/// (each the frustum between it and its footprint on the surfaces).
+fn surface_volumes(
+    model: &Model,
+    x: &Soa,
+    gap: &[Real],
+    normal: &[crate::math::Vec3],
+    out: &mut [Real],
+) {
+    match model.layout() {
+        Layout::Grid(grid) => surface_cell_volumes(grid, x, gap, normal, model.radius, out),
+        Layout::Mesh(mesh, _) => {
+            for (t, v) in out.iter_mut().enumerate() {
+                let [a, b, c] = mesh.triangles[t].map(|k| k as usize);
+                *v = frustum(x, gap, normal, model.radius, a, b, c);
+            }
+        }
+    }
+}
+
+/// The solid between triangle `(a, b, c)` of `x` and its footprint on the surfaces (see
+/// [`surface_cell_volumes`]), m^3.
+fn frustum(
+    x: &Soa,
+    gap: &[Real],
+    normal: &[crate::math::Vec3],
+    radius: Real,
+    a: usize,
+    b: usize,
+    c: usize,
+) -> Real {
     // No sticky surface under a particle (an infinite gap): no volume to measure there.
     let height = |k: usize| {
         if gap[k].is_finite() {
@@ -1171,28 +1440,19 @@ pub fn surface_cell_volumes(
             0.0
         }
     };
-    let frustum = |a: usize, b: usize, c: usize| {
-        let (ha, hb, hc) = (height(a), height(b), height(c));
-        let (na, nb, nc) = (normal[a], normal[b], normal[c]);
-        let (pa, pb, pc) = (x.get(a), x.get(b), x.get(c));
-        let (qa, qb, qc) = (pa - na * ha, pb - nb * hb, pc - nc * hc);
-        let n = (na + nb + nc).normalize_or_zero();
-        let top = 0.5 * (pb - pa).cross(pc - pa).dot(n);
-        let bottom = 0.5 * (qb - qa).cross(qc - qa).dot(n);
-        let mean = if top * bottom > 0.0 {
-            top.signum() * (top * bottom).sqrt()
-        } else {
-            0.0
-        };
-        (ha + hb + hc) / 3.0 * (top + bottom + mean) / 3.0
+    let (ha, hb, hc) = (height(a), height(b), height(c));
+    let (na, nb, nc) = (normal[a], normal[b], normal[c]);
+    let (pa, pb, pc) = (x.get(a), x.get(b), x.get(c));
+    let (qa, qb, qc) = (pa - na * ha, pb - nb * hb, pc - nc * hc);
+    let n = (na + nb + nc).normalize_or_zero();
+    let top = 0.5 * (pb - pa).cross(pc - pa).dot(n);
+    let bottom = 0.5 * (qb - qa).cross(qc - qa).dot(n);
+    let mean = if top * bottom > 0.0 {
+        top.signum() * (top * bottom).sqrt()
+    } else {
+        0.0
     };
-    for (c, v) in out.iter_mut().enumerate() {
-        let (i, j) = (c % m, c / m);
-        let a = j * nx + i;
-        let (b, cc, d) = (a + 1, a + nx, a + nx + 1);
-        // Counter-clockwise seen from above (+y for a cloth lying in x-z): (a, d, b), (a, c, d).
-        *v = frustum(a, d, b) + frustum(a, cc, d);
-    }
+    (ha + hb + hc) / 3.0 * (top + bottom + mean) / 3.0
 }
 
 /// The air's pressure difference (Pa) on the sealed particle `(i, j)` of an `nx` x `nz` grid:

@@ -182,16 +182,24 @@ impl ImplicitMesh {
             self.per_pascal.set(k, pressure_per_pascal(mesh, law, x, k));
         }
         let pressure_now = match air.timing {
-            Timing::Now => match air.model.load(air.params) {
-                AirLoad::Uniform(p) => Some(p),
-                AirLoad::PerParticle(_) => Some(0.0),
-            },
+            Timing::Now => Some(()),
             Timing::EndOfStep => None,
         };
-        if let Some(dp) = pressure_now.filter(|&dp| dp != 0.0) {
-            for k in 0..n {
-                self.force
-                    .set(k, self.force.get(k) + self.per_pascal.get(k) * dp);
+        if pressure_now.is_some() {
+            match air.model.load(air.params) {
+                AirLoad::Uniform(dp) if dp != 0.0 => {
+                    for k in 0..n {
+                        self.force
+                            .set(k, self.force.get(k) + self.per_pascal.get(k) * dp);
+                    }
+                }
+                AirLoad::Uniform(_) => {}
+                AirLoad::PerParticle(dp) => {
+                    for k in 0..n {
+                        self.force
+                            .set(k, self.force.get(k) + self.per_pascal.get(k) * dp[k]);
+                    }
+                }
             }
         }
         self.assemble(model, springs, x, dt);
@@ -254,6 +262,46 @@ impl ImplicitMesh {
         for k in 0..n {
             if !self.fixed[k] {
                 self.v.set(k, free_v.get(k));
+            }
+        }
+        // The pockets' end-of-step pressures: solved by the air model from the coasting
+        // positions, then their force's response added by one more solve.
+        if pressure_now.is_none() && air.model.pockets().is_some() {
+            let mut coast = x.clone();
+            for k in 0..n {
+                coast.set(k, x.get(k) + self.v.get(k) * dt);
+            }
+            let mut measures = crate::measure::Measures::for_layout(model.layout(), true);
+            measures.remeasure_mesh(model.layout(), &coast, model.sticking, model.radius);
+            air.model
+                .solve_end_of_step(air.params, model, &coast, &measures, &control.held);
+            if let AirLoad::PerParticle(dp) = air.model.load(air.params) {
+                let mut rhs_p = Soa::zeros(n);
+                for k in 0..n {
+                    if !self.fixed[k] && dp[k] != 0.0 {
+                        rhs_p.set(k, self.per_pascal.get(k) * (dp[k] * dt));
+                    }
+                    self.force
+                        .set(k, self.force.get(k) + self.per_pascal.get(k) * dp[k]);
+                }
+                self.w = Soa::zeros(n);
+                let iters = pcg(
+                    &self.a,
+                    &mut self.pre,
+                    &rhs_p,
+                    &mut self.w,
+                    &self.fixed,
+                    tolerance,
+                    MAX_ITERATIONS,
+                    parallel,
+                    &mut self.cg,
+                );
+                self.total_iterations += iters as u64;
+                for k in 0..n {
+                    if !self.fixed[k] {
+                        self.v.set(k, self.v.get(k) + self.w.get(k));
+                    }
+                }
             }
         }
         // The end-of-step pressure: the response per pascal, then Boyle on the predicted volume.

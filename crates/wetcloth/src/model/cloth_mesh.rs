@@ -110,6 +110,9 @@ pub struct ClothMesh {
     pub across: Vec<[u32; 2]>,
     /// For every interior edge of `across`, its index in `edges`.
     pub across_edge: Vec<u32>,
+    /// The triangles on each side of every edge (in `edges` order): `[t, u32::MAX]` on the
+    /// boundary.
+    pub edge_faces: Vec<[u32; 2]>,
     /// The boundary loops, each in order along the boundary (the mesh on its left walking
     /// with the triangles' winding), each vertex once; sorted by their first vertex.
     pub boundary: Vec<Vec<u32>>,
@@ -200,6 +203,14 @@ impl ClothMesh {
                 tri.into_iter().find(|&v| v != a && v != b).unwrap_or(a)
             })
         };
+        let edge_faces: Vec<[u32; 2]> = edges
+            .iter()
+            .map(|&[a, b]| match (half.get(&(a, b)), half.get(&(b, a))) {
+                (Some(&t), Some(&u)) => [t.min(u), t.max(u)],
+                (Some(&t), None) | (None, Some(&t)) => [t, u32::MAX],
+                (None, None) => [u32::MAX, u32::MAX],
+            })
+            .collect();
         let mut across = Vec::new();
         let mut across_edge = Vec::new();
         for (e, &[a, b]) in edges.iter().enumerate() {
@@ -265,6 +276,7 @@ impl ClothMesh {
             edges,
             across,
             across_edge,
+            edge_faces,
             boundary,
             area,
             triangle_area,
@@ -326,7 +338,7 @@ impl ClothMesh {
     pub fn heap_bytes(&self) -> usize {
         self.rest.capacity() * 24
             + self.triangles.capacity() * 12
-            + (self.edges.capacity() + self.across.capacity()) * 8
+            + (self.edges.capacity() + self.across.capacity() + self.edge_faces.capacity()) * 8
             + (self.across_edge.capacity()
                 + self.vertex_start.capacity()
                 + self.vertex_triangles.capacity())

@@ -183,12 +183,11 @@ impl SimConfig {
             }
         }
         if let Some(m) = &c.mesh {
-            // What the general path does not take yet, refused rather than run wrong.
-            if self.air.model == AirModelKind::Pockets {
+            if !self.air.pockets.is_empty() {
                 return Err(ConfigError::Invalid {
-                    key: "air.model".into(),
-                    message: "a mesh cloth (`[cloth] mesh`) takes the thesis' air model; the \
-                              pockets model takes the built-in grid only"
+                    key: "air.pocket".into(),
+                    message: "seeded pockets ([[air.pocket]]) take the built-in grid; on a mesh \
+                              cloth the pockets form where the wet cloth seals"
                         .into(),
                 });
             }
