@@ -159,6 +159,26 @@ const CLOTH: &[&str] = &[
     "water_mass",
     "dry_friction_factor",
     "wet_adhesion",
+    "mesh",
+    "rotation",
+    "scale",
+    "flip_normals",
+];
+/// The keys of a mesh cloth's `[cloth]` (besides `mesh`): no `size` or `resolution`.
+const MESH_CLOTH: &[&str] = &[
+    "position",
+    "mass",
+    "structural_stiffness",
+    "shear_stiffness",
+    "damping",
+    "thickness",
+    "collision_margin",
+    "self_collision",
+    "strain_limit",
+    "wetness",
+    "rotation",
+    "scale",
+    "flip_normals",
 ];
 const AIR: &[&str] = &[
     "enabled",
@@ -272,7 +292,23 @@ fn good(key: &str) -> BoxedStrategy<String> {
         ])
         .prop_map(String::from)
         .boxed(),
-        "self_collision" | "enabled" | "sticky" => {
+        "mesh" => prop::sample::select(vec![
+            "\"cloth.obj\"",
+            "\"cloth-quads.obj\"",
+            "\"inconsistent.obj\"",
+            "\"nonmanifold.obj\"",
+            "\"degenerate.obj\"",
+            "\"unused.obj\"",
+            "\"mesh.obj\"",
+            "\"tiny.obj\"",
+            "\"damaged.obj\"",
+            "\"huge.obj\"",
+            "\"missing.obj\"",
+            "\"fifo.obj\"",
+        ])
+        .prop_map(String::from)
+        .boxed(),
+        "self_collision" | "enabled" | "sticky" | "flip_normals" => {
             prop::bool::ANY.prop_map(|b| b.to_string()).boxed()
         }
         "strain_limit" => num(0.0..1.0),
@@ -341,16 +377,28 @@ fn grab() -> impl Strategy<Value = String> {
             })
             .collect::<Vec<_>>()
     });
+    // Which particles: a grid index, a vertex, the nearest to a point, or a ball or a box
+    // (now and then two of them, which is refused).
+    let pick = prop_oneof![
+        6 => (0u64..6, 0u64..6).prop_map(|(i, j)| format!("particle = [{i}, {j}]")),
+        2 => (0u64..40).prop_map(|k| format!("vertex = {k}")),
+        2 => (coordinate(), coordinate(), coordinate())
+            .prop_map(|(x, y, z)| format!("near = [{x}, {y}, {z}]")),
+        2 => (coordinate(), coordinate(), coordinate(), num(0.0..0.2))
+            .prop_map(|(x, y, z, r)| format!("within = {{ center = [{x}, {y}, {z}], radius = {r} }}")),
+        1 => (coordinate(), coordinate(), coordinate(), num(0.0..0.2))
+            .prop_map(|(x, y, z, h)| format!(
+                "within = {{ center = [{x}, {y}, {z}], half_size = [{h}, {h}, {h}] }}"
+            )),
+        1 => (0u64..40).prop_map(|k| format!("particle = [0, 0]\nvertex = {k}")),
+    ];
     (
-        (0u64..6, 0u64..6),
+        pick,
         keyframes,
         prop::collection::vec(key(&["x_extra"]).prop_flat_map(value_for), 0..1),
     )
-        .prop_map(|((i, j), keys, extra)| {
-            let mut s = format!(
-                "[[grab]]\nparticle = [{i}, {j}]\nkeys = [{}]\n",
-                keys.join(", ")
-            );
+        .prop_map(|(pick, keys, extra)| {
+            let mut s = format!("[[grab]]\n{pick}\nkeys = [{}]\n", keys.join(", "));
             for (k, v) in extra {
                 s += &format!("{k} = {v}\n");
             }
@@ -470,7 +518,18 @@ fn scene_text() -> impl Strategy<Value = String> {
     (
         prop::option::of(prop_oneof![12 => good("name"), 1 => scalar().boxed()]),
         prop::option::of(table("simulation", SIMULATION)),
-        prop::option::of(table("cloth", CLOTH)),
+        prop::option::of(prop_oneof![
+            3 => table("cloth", CLOTH).boxed(),
+            1 => (good("mesh"), entries(MESH_CLOTH))
+                .prop_map(|(mesh, e)| {
+                    let mut s = format!("[cloth]\nmesh = {mesh}\n");
+                    for (k, v) in e {
+                        s += &format!("{k} = {v}\n");
+                    }
+                    s
+                })
+                .boxed(),
+        ]),
         prop::option::of(table("air", AIR)),
         prop::collection::vec(collider(), 0..3),
         prop::collection::vec(grab(), 0..2),
@@ -568,7 +627,9 @@ fn mutate(text: &str, mutations: &[Mutation]) -> Vec<u8> {
 static ACCEPTED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 static REFUSED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 /// Features whose accepted scenes are counted, to show the campaign reaches them.
-const FEATURES: [&str; 6] = [
+const FEATURES: [&str; 8] = [
+    "mesh = \"cloth",
+    "within = ",
     "\"mesh\"",
     "\"pockets\"",
     "[[cloth.paint]]",
@@ -576,8 +637,8 @@ const FEATURES: [&str; 6] = [
     "keys = [{",
     "\"implicit\"",
 ];
-static ACCEPTED_WITH: [std::sync::atomic::AtomicU64; 6] =
-    [const { std::sync::atomic::AtomicU64::new(0) }; 6];
+static ACCEPTED_WITH: [std::sync::atomic::AtomicU64; 8] =
+    [const { std::sync::atomic::AtomicU64::new(0) }; 8];
 
 /// The folder the fuzzed scene files "live" in, holding the meshes they name: `mesh.obj` (an
 /// octahedron), `tiny.obj` (one triangle), `damaged.obj` (cut, with a NaN and a face naming
@@ -615,6 +676,40 @@ fn scene_path() -> &'static std::path::Path {
             "v -1 -1 -1\nv 1 -1 -1\nv 1 -1 1\nv -1 -1 1\nf 1 2 3\nf 1 3 4\nf 2 1 4\nf 2 4 3\n",
         )
         .unwrap();
+        // Cloths: a 4 x 4 grid of triangles (lying at y = 0.05), the same of quads with
+        // texture coordinates, and damaged ones: one face wound against the rest, an edge of
+        // three faces, a face of zero area, a vertex no face uses.
+        let mut grid = String::new();
+        for j in 0..4 {
+            for i in 0..4 {
+                grid += &format!("v {} 0.05 {}\n", i as f64 * 0.05, j as f64 * 0.05);
+            }
+        }
+        let mut tris = String::new();
+        let mut quads = String::new();
+        for j in 0..3 {
+            for i in 0..3 {
+                let a = j * 4 + i + 1;
+                let (b, c, d) = (a + 1, a + 5, a + 4);
+                tris += &format!("f {a} {c} {b}\nf {a} {d} {c}\n");
+                quads += &format!("f {a}/{a} {d}/{d} {c}/{c} {b}/{b}\n");
+            }
+        }
+        let uvs: String = (0..16).map(|k| format!("vt {} {}\n", k % 4, k / 4)).collect();
+        std::fs::write(dir.join("cloth.obj"), format!("{grid}{tris}")).unwrap();
+        std::fs::write(dir.join("cloth-quads.obj"), format!("{grid}{uvs}{quads}")).unwrap();
+        std::fs::write(
+            dir.join("inconsistent.obj"),
+            format!("{grid}{tris}").replacen("f 1 6 2", "f 1 2 6", 1),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("nonmanifold.obj"),
+            format!("{grid}v 0 0.2 0\n{tris}f 1 2 17\n"),
+        )
+        .unwrap();
+        std::fs::write(dir.join("degenerate.obj"), format!("{grid}{tris}f 1 2 3\n")).unwrap();
+        std::fs::write(dir.join("unused.obj"), format!("{grid}v 1 1 1\n{tris}")).unwrap();
         #[cfg(unix)]
         if !dir.join("fifo.obj").exists() {
             let _ = std::process::Command::new("mkfifo")
