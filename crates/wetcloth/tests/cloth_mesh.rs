@@ -684,3 +684,63 @@ fn a_mesh_cloth_holds_a_pocket_like_the_grid() {
         assert!(((vm - vg) / vg).abs() < 0.1, "volume: grid {vg}, mesh {vm}");
     }
 }
+
+/// Self-collision on a mesh of two separate pieces (several pieces in one file are allowed):
+/// two squares, one laid 12 mm above the other and offset by half a spacing, dropped onto the
+/// table. With self-collision the upper one comes to rest on the lower, each of its particles
+/// nested in the lower's, one diameter `d` from its neighbours: the closest pair of particles
+/// of different pieces `d` apart, and the upper piece `sqrt(d^2 - o^2)` above the lower (`o`
+/// the pieces' horizontal offset); without, it falls through it onto the table (the pieces'
+/// mean heights within a fifth of a diameter).
+#[test]
+fn self_collision_keeps_two_mesh_pieces_apart() {
+    let stack = |self_collision: bool| {
+        let (n, size) = (12, 0.1);
+        let h = size / (n - 1) as Real;
+        let (v, t) = grid_mesh(n, size);
+        let m = v.len() as u32;
+        let mut vertices = v.clone();
+        vertices.extend(v.iter().map(|p| *p + Vec3::new(0.5 * h, 0.012, 0.5 * h)));
+        let mut faces = t.clone();
+        faces.extend(t.iter().map(|f| f.map(|k| k + m)));
+        let mut cfg = bare(source(vertices, faces), Vec3::ZERO);
+        cfg.cloth.self_collision = self_collision;
+        cfg.cloth.damping = 5.0;
+        // Particles 8.5 mm across, wider than the pieces' 6.4 mm horizontal offset: a piece
+        // cannot slip between the other's particles.
+        cfg.cloth.thickness = 0.008;
+        cfg.colliders = vec![Collider::plane(Vec3::ZERO, Vec3::Y, 0.5)];
+        cfg.cloth.position.y = cfg.cloth.particle_radius();
+        let mut sim = Simulation::new(cfg).unwrap();
+        let r = sim.particle_radius();
+        run(&mut sim, 0.3);
+        let q = sim.positions();
+        let m = m as usize;
+        let mut closest = Real::INFINITY;
+        for a in 0..m {
+            for b in m..2 * m {
+                closest = closest.min((q.get(a) - q.get(b)).length());
+            }
+        }
+        let lower: Real = q.y[..m].iter().sum::<Real>() / m as Real;
+        let upper: Real = q.y[m..].iter().sum::<Real>() / m as Real;
+        let o = 0.5 * h * (2.0 as Real).sqrt();
+        let nested = ((2.0 * r).powi(2) - o * o).sqrt();
+        (closest / (2.0 * r), (upper - lower) / nested)
+    };
+    let (with, with_lift) = stack(true);
+    let (_, without_lift) = stack(false);
+    eprintln!("with: closest {with} diameters, lift {with_lift}; without: lift {without_lift}");
+    assert!(
+        with > 0.99,
+        "closest pair {with} diameters apart with self-collision"
+    );
+    assert!(
+        (with_lift - 1.0).abs() < 0.02,
+        "the upper piece rests nested on the lower: {with_lift} of the nested height"
+    );
+    assert!(
+        without_lift.abs() < 0.2,
+        "without, it falls through: {without_lift}"
+    );
+}
