@@ -11,8 +11,10 @@
 //! not-yet-grouped neighbours, greedily in index order; leftovers join a neighbouring
 //! aggregate), the coarse matrix is the Galerkin product `P^T A P` with the piecewise-constant
 //! prolongation `P` (each particle's block of the identity into its aggregate), levels repeat
-//! until a few hundred particles remain, and the coarsest level is solved by block-Jacobi
-//! sweeps. A V-cycle smooths with damped block-Jacobi before and after the coarse correction.
+//! until a few hundred particles remain, and the coarsest level is solved by symmetric block
+//! Gauss-Seidel sweeps. A V-cycle smooths with a forward block Gauss-Seidel sweep before the
+//! coarse correction and a backward one after it, so it is symmetric, as the conjugate gradient
+//! needs.
 
 use crate::math::{Real, Soa, Vec3};
 use glam::DMat3;
@@ -145,7 +147,7 @@ struct Level {
     ax: Soa,
 }
 
-/// The preconditioner of a mesh system: an aggregation multigrid V-cycle (block-Jacobi
+/// The preconditioner of a mesh system: an aggregation multigrid V-cycle (block Gauss-Seidel
 /// smoothing), or block-Jacobi alone. The hierarchy's pattern is built once from the matrix's
 /// pattern ([`Preconditioner::setup`]); each step refreshes its values
 /// ([`Preconditioner::refresh`]).
@@ -161,8 +163,6 @@ pub(crate) struct Preconditioner {
 
 /// Smallest level aggregated further.
 const COARSEST: usize = 200;
-/// Damping of the block-Jacobi smoother.
-const OMEGA: Real = 0.7;
 
 /// Greedy aggregation of the graph of `a`: returns each row's aggregate and the count.
 fn aggregate(a: &BlockCsr) -> (Vec<u32>, usize) {
@@ -229,12 +229,22 @@ fn coarse_pattern(a: &BlockCsr, agg: &[u32], m: usize) -> (BlockCsr, Vec<u32>) {
     (c, galerkin)
 }
 
-/// One damped block-Jacobi sweep `x += omega D^-1 (b - A x)`, `ax` scratch.
-fn sweep(a: &BlockCsr, inv_diag: &[DMat3], b: &Soa, x: &mut Soa, ax: &mut Soa) {
-    a.mul(x, ax, false);
-    for i in 0..b.len() {
-        let r = b.get(i) - ax.get(i);
-        x.set(i, x.get(i) + inv_diag[i] * r * OMEGA);
+/// One block Gauss-Seidel sweep over the rows, forward or backward: each row's residual with
+/// the rows already swept, `x_i += D_i^-1 r_i`. A forward sweep before the coarse correction and
+/// a backward one after keep the V-cycle symmetric (the conjugate gradient needs that).
+fn gauss_seidel(a: &BlockCsr, inv_diag: &[DMat3], b: &Soa, x: &mut Soa, forward: bool) {
+    let n = b.len();
+    let mut row = |i: usize| {
+        let mut r = b.get(i);
+        for k in a.start[i] as usize..a.start[i + 1] as usize {
+            r -= a.val[k] * x.get(a.col[k] as usize);
+        }
+        x.set(i, x.get(i) + inv_diag[i] * r);
+    };
+    if forward {
+        (0..n).for_each(&mut row);
+    } else {
+        (0..n).rev().for_each(&mut row);
     }
 }
 
@@ -320,11 +330,11 @@ impl Preconditioner {
     /// `b`, into `x`; `levels[l]` is the next coarser level.
     fn cycle(&mut self, l: usize, a: &BlockCsr, inv: &[DMat3], b: &Soa, x: &mut Soa, ax: &mut Soa) {
         let n = b.len();
-        // Pre-smooth from zero: two damped sweeps.
-        for i in 0..n {
-            x.set(i, inv[i] * b.get(i) * OMEGA);
+        // Pre-smooth from zero: a forward Gauss-Seidel sweep.
+        for v in [&mut x.x, &mut x.y, &mut x.z] {
+            v.fill(0.0);
         }
-        sweep(a, inv, b, x, ax);
+        gauss_seidel(a, inv, b, x, true);
         if l < self.levels.len() {
             a.mul(x, ax, false);
             let mut level = std::mem::take(&mut self.levels[l]);
@@ -356,14 +366,14 @@ impl Preconditioner {
             level.ax = cax;
             self.levels[l] = level;
         } else {
-            // The coarsest level: more sweeps.
-            for _ in 0..6 {
-                sweep(a, inv, b, x, ax);
+            // The coarsest level: symmetric sweeps.
+            for _ in 0..3 {
+                gauss_seidel(a, inv, b, x, false);
+                gauss_seidel(a, inv, b, x, true);
             }
         }
-        // Post-smooth: two sweeps.
-        sweep(a, inv, b, x, ax);
-        sweep(a, inv, b, x, ax);
+        // Post-smooth: the backward sweep.
+        gauss_seidel(a, inv, b, x, false);
     }
 
     /// Heap bytes held.
