@@ -48,12 +48,16 @@ pub use labels::{
     LabelsError, NO_POCKET, POCKET_LABELS_MAGIC, is_pocket_labels_file_name, parse_pocket_labels,
     particle_pocket_ids, pocket_labels_file_name, write_pocket_labels,
 };
-pub use mesh_copy::{read_colliders, read_run_json, write_mesh_copies};
+pub use mesh_copy::{
+    cloth_copy, read_cloth_copy, read_colliders, read_run_json, write_cloth_copy, write_mesh_copies,
+};
 pub use obj::write_obj;
 pub use params::{ParamValue, SceneParam, scene_params};
 pub use pointcache::{MddWriter, PC2_SIGNATURE, Pc2Writer};
 pub use read::{FrameBuffers, FrameError, read_obj_frame};
-pub use run_json::{RunInfo, RunStatus, incomplete, write_run_json, write_run_json_file};
+pub use run_json::{
+    ClothMeshInfo, RunInfo, RunStatus, incomplete, write_run_json, write_run_json_file,
+};
 pub use timing::{frame_step, last_frame, step_at};
 pub use usd::{PLANE_HALF_SIDE, PLANE_MIN_HALF_SIDE, UsdaWriter, UsdcWriter};
 
