@@ -55,7 +55,8 @@ pub struct RunInfo {
     /// `{"shape": "box", "center": [..], "half_extents": [..], ...}` (lengths in m). The
     /// description is the core's [`Collider`], so every reader draws every shape alike.
     pub colliders: Vec<Collider>,
-    /// Grabbed particles as grid indices `[column, row]`, in scene order.
+    /// Grabbed particles as grid indices `[column, row]`, in scene order; empty for a mesh
+    /// cloth (see `grabs.csv`).
     pub grabs: Vec<[usize; 2]>,
 }
 
@@ -168,7 +169,13 @@ impl RunInfo {
             time: 0.0,
             error: None,
             colliders: config.colliders.clone(),
-            grabs: config.grabs.iter().map(|g| g.particle).collect(),
+            // A mesh cloth's grabs name no grid particle (grabs.csv has each one's particles
+            // and force).
+            grabs: if grid {
+                config.grabs.iter().map(|g| g.particle).collect()
+            } else {
+                Vec::new()
+            },
         }
     }
 }
