@@ -375,8 +375,13 @@ fn measure_scene(
         .map_err(|e| CliError::Setup(format!("cannot start {threads} threads: {e}")))?;
     pool.install(|| {
         let mut sim = Simulation::new(cfg).map_err(|e| CliError::Setup(e.to_string()))?;
-        let particles = sim.grid().len();
-        let side = sim.grid().nx;
+        let particles = sim.particle_count();
+        // A mesh cloth has no side: the side of a square grid of as many particles.
+        let side = sim
+            .model()
+            .grid
+            .as_ref()
+            .map_or((particles as f64).sqrt().round() as usize, |g| g.nx);
         let start = Instant::now();
         // Chunks of at most 1 % of the scene, so `--seconds` stops it in time.
         let chunk = (total / 100).max(1);
