@@ -238,6 +238,7 @@ mod tests {
     fn the_bubbles_report_is_the_cores_on_the_grid() {
         let mut c = wetcloth::SimConfig::thesis_demo();
         c.cloth.resolution = [9, 9];
+        c.grabs[0].particle = [4, 4];
         let mut sim = Simulation::new(c).unwrap();
         sim.advance(50).unwrap();
         let core = sim.pocket_reports();
