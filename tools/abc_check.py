@@ -37,8 +37,9 @@ def f32(x):
     return struct.unpack("<f", struct.pack("<f", x))[0]
 
 
-def read_obj(path):
-    """The v and vt lines (as float32) and the faces (0-based) of an OBJ frame."""
+def read_obj(path, corners=None):
+    """The v and vt lines (as float32) and the faces (0-based) of an OBJ frame; with a list
+    `corners`, each face's texture-coordinate indices (0-based) appended to it as a list."""
     v, vt, faces = [], [], []
     with open(path) as f:
         for line in f:
@@ -51,6 +52,8 @@ def read_obj(path):
                 vt.append(tuple(f32(float(x)) for x in w[1:3]))
             elif w[0] == "f":
                 faces.append([int(c.split("/")[0]) - 1 for c in w[1:]])
+                if corners is not None:
+                    corners.append([int(c.split("/")[1]) - 1 for c in w[1:]])
     return v, vt, faces
 
 
@@ -169,7 +172,8 @@ def main():
     check(mesh.getTopologyVariance() == AbcGeom.MeshTopologyVariance.kHomogenousTopology, f"topology variance {mesh.getTopologyVariance()}")
     props = mesh.getFaceIndicesProperty()
     check(props.isConstant() and mesh.getFaceCountsProperty().isConstant(), "faces are not stored once")
-    rv, rvt, rfaces = read_obj(os.path.join(run_dir, "rest.obj"))
+    rcorners = []
+    rv, rvt, rfaces = read_obj(os.path.join(run_dir, "rest.obj"), rcorners)
     s0 = mesh.getValue(at_frame(0, rate))
     counts = list(s0.getFaceCounts())
     indices = list(s0.getFaceIndices())
@@ -177,9 +181,21 @@ def main():
     want = [i for f in rfaces for i in reversed(f)]
     check(indices == want, "face indices are not rest.obj's faces reversed (clockwise)")
 
-    # UVs: vertex scope, the OBJ's vt.
+    # UVs: the grid's per vertex, the OBJ's vt; a mesh cloth's indexed per face corner, each
+    # face's corners reversed as its vertices are.
     uv = mesh.getUVsParam()
-    if check(uv.valid(), "no uv"):
+    if check(uv.valid(), "no uv") and "mesh" in run:
+        check(uv.getScope() == AbcGeom.GeometryScope.kFacevaryingScope and uv.isIndexed(), "uv not indexed per face corner")
+        sample = uv.getIndexedValue()
+        vals = [tuple(p) for p in sample.getVals()]
+        idx = list(sample.getIndices())
+        check(vals == rvt, "uv values differ from the OBJ's vt")
+        check(idx == [i for c in rcorners for i in reversed(c)], "uv indices are not the OBJ's f v/vt reversed")
+        expanded = [tuple(p) for p in uv.getExpandedValue().getVals()]
+        check(expanded == [rvt[i] for c in rcorners for i in reversed(c)], "expanded uv differ")
+        md = uv.getMetaData()
+        check(md.get("notUV") != "1" and md.get("podExtent") == "2" and md.get("isGeomParam") == "true", "uv not marked as UVs")
+    elif uv.valid():
         check(uv.getScope() == AbcGeom.GeometryScope.kVertexScope and not uv.isIndexed(), "uv not per vertex")
         vals = [tuple(p) for p in uv.getExpandedValue().getVals()]
         check(vals == rvt, "uv differ from the OBJ's vt")
@@ -209,7 +225,11 @@ def main():
 
     # Colliders.
     colliders = scene.getChild("colliders") if run["colliders"] else None
-    size = max(run["size"])
+    if "mesh" in run:
+        lo, hi = run["mesh"]["bounds"]
+        size = max(hi[0] - lo[0], hi[2] - lo[2])
+    else:
+        size = max(run["size"])
     for i, c in enumerate(run["colliders"]):
         name = f"{c['shape']}_{i}"
         obj = colliders.getChild(name) if colliders else None

@@ -1,8 +1,10 @@
 """Applies a run's PC2 and MDD caches in Blender and compares what Blender shows with the frames.
 
     blender -b --python tools/blender_cache_check.py -- RUN_DIR [--frames 0,5,10] [--render PNG]
+        [--obj MESH.obj]
 
-Imports RUN_DIR/rest.obj with Blender's OBJ importer (forward -Z, up Y), adds a Mesh Cache
+Imports RUN_DIR/rest.obj (or, with --obj, another OBJ of the same vertices: a mesh cloth's
+original file, which the caches apply to unchanged) with Blender's OBJ importer (forward -Z, up Y), adds a Mesh Cache
 modifier with RUN_DIR/<scene name>.pc2, then one with the .mdd, and at each checked frame
 compares every evaluated vertex with that frame's OBJ file (frames/frame_NNNN.obj). The settings
 under which they match (written in docs/export.md):
@@ -34,6 +36,7 @@ if not argv:
     sys.exit(__doc__)
 run_dir = argv[0]
 render_png = argv[argv.index("--render") + 1] if "--render" in argv else None
+mesh_obj = argv[argv.index("--obj") + 1] if "--obj" in argv else os.path.join(run_dir, "rest.obj")
 with open(os.path.join(run_dir, "run.json")) as f:
     run = json.load(f)
 frames = run["frames"]
@@ -64,13 +67,12 @@ scene = bpy.context.scene
 scene.render.fps = max(1, round(run["frame_rate"]))
 scene.render.fps_base = scene.render.fps / run["frame_rate"]
 scene.frame_start, scene.frame_end = 0, frames - 1
-bpy.ops.wm.obj_import(
-    filepath=os.path.join(run_dir, "rest.obj"), forward_axis="NEGATIVE_Z", up_axis="Y"
-)
+bpy.ops.wm.obj_import(filepath=mesh_obj, forward_axis="NEGATIVE_Z", up_axis="Y")
 obj = bpy.context.selected_objects[0]
-n = run["resolution"][0] * run["resolution"][1]
+n = run["mesh"]["vertices"] if "mesh" in run else run["resolution"][0] * run["resolution"][1]
 if len(obj.data.vertices) != n:
-    sys.exit(f"rest.obj imported with {len(obj.data.vertices)} vertices, run.json says {n}")
+    sys.exit(f"{mesh_obj} imported with {len(obj.data.vertices)} vertices, run.json says {n}")
+print(f"{os.path.basename(mesh_obj)}: {n} vertices, {len(obj.data.polygons)} faces")
 
 
 def evaluated():
@@ -125,7 +127,11 @@ if render_png:
     bsdf.inputs["Base Color"].default_value = (0.42, 0.04, 0.08, 1)
     bsdf.inputs["Roughness"].default_value = 0.35
     obj.data.materials.append(cloth_mat)
-    size = max(run["size"])
+    if "mesh" in run:
+        lo, hi = run["mesh"]["bounds"]
+        size = max(hi[0] - lo[0], hi[2] - lo[2])
+    else:
+        size = max(run["size"])
     bpy.ops.mesh.primitive_plane_add(size=4 * size, location=(0, 0, 0))
     table = bpy.data.materials.new("table")
     table.use_nodes = True

@@ -30,8 +30,9 @@ def check(ok, what):
     return ok
 
 
-def read_obj(path):
-    """The v, vn and vt lines and the faces (0-based vertex indices) of an OBJ frame."""
+def read_obj(path, corners=None):
+    """The v, vn and vt lines and the faces (0-based vertex indices) of an OBJ frame; with a
+    list `corners`, each corner's 0-based texture-coordinate index appended to it."""
     v, vn, vt, faces = [], [], [], []
     with open(path) as f:
         for line in f:
@@ -46,6 +47,8 @@ def read_obj(path):
                 vt.append(tuple(float(x) for x in w[1:3]))
             elif w[0] == "f":
                 faces.append([int(c.split("/")[0]) - 1 for c in w[1:]])
+                if corners is not None:
+                    corners.extend(int(c.split("/")[1]) - 1 for c in w[1:])
     return v, vn, vt, faces
 
 
@@ -87,7 +90,7 @@ def check_stage(path, run_dir, run):
         return
     frames = run["frames"]
     rate = run["frame_rate"]
-    nx, nz = run["resolution"]
+    mesh_cloth = run.get("mesh")
     check(UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y, f"{name}: upAxis is not Y")
     check(UsdGeom.GetStageMetersPerUnit(stage) == 1.0, f"{name}: metersPerUnit is not 1")
     check(stage.GetTimeCodesPerSecond() == rate, f"{name}: timeCodesPerSecond != {rate}")
@@ -102,17 +105,33 @@ def check_stage(path, run_dir, run):
     if not check(cloth and cloth.GetTypeName() == "Mesh", f"{name}: no Mesh prim 'cloth'"):
         return
     mesh = UsdGeom.Mesh(cloth)
-    v0, _, vt, faces = read_obj(os.path.join(run_dir, "frames", "frame_0000.obj"))
+    corners = []
+    v0, _, vt, faces = read_obj(os.path.join(run_dir, "frames", "frame_0000.obj"), corners)
     counts = mesh.GetFaceVertexCountsAttr().Get()
     indices = mesh.GetFaceVertexIndicesAttr().Get()
-    tris = 2 * (nx - 1) * (nz - 1)
-    check(len(counts) == tris and set(counts) == {3}, f"{name}: {len(counts)} faces, not {tris} triangles")
+    if mesh_cloth:
+        # A mesh cloth: the file's polygons, in its order and winding.
+        check(list(counts) == [len(f) for f in faces], f"{name}: face counts differ from the OBJ's polygons")
+    else:
+        nx, nz = run["resolution"]
+        tris = 2 * (nx - 1) * (nz - 1)
+        check(len(counts) == tris and set(counts) == {3}, f"{name}: {len(counts)} faces, not {tris} triangles")
     check(list(indices) == [i for f in faces for i in f], f"{name}: face indices differ from the OBJ")
     st = UsdGeom.PrimvarsAPI(cloth).GetPrimvar("st")
-    check(st and st.GetInterpolation() == UsdGeom.Tokens.vertex, f"{name}: no vertex primvar st")
-    if st:
-        uv = st.Get()
-        check(len(uv) == nx * nz and all(close(a, b) for a, b in zip(uv, vt)), f"{name}: UVs differ")
+    if mesh_cloth:
+        # Face-varying and indexed: each corner's texture coordinate is the OBJ's f v/vt.
+        check(st and st.GetInterpolation() == UsdGeom.Tokens.faceVarying and st.IsIndexed(), f"{name}: no indexed face-varying primvar st")
+        if st:
+            uv = st.Get()
+            check(len(uv) == len(vt) and all(close(a, b) for a, b in zip(uv, vt)), f"{name}: UVs differ from the OBJ's vt")
+            check(list(st.GetIndices()) == corners, f"{name}: st indices differ from the OBJ's f v/vt")
+            flat = st.ComputeFlattened()
+            check(len(flat) == len(corners) and all(close(flat[i], vt[c]) for i, c in enumerate(corners)), f"{name}: flattened st differs")
+    else:
+        check(st and st.GetInterpolation() == UsdGeom.Tokens.vertex, f"{name}: no vertex primvar st")
+        if st:
+            uv = st.Get()
+            check(len(uv) == nx * nz and all(close(a, b) for a, b in zip(uv, vt)), f"{name}: UVs differ")
     check(mesh.GetNormalsInterpolation() == UsdGeom.Tokens.vertex, f"{name}: normals not per vertex")
     samples = mesh.GetPointsAttr().GetTimeSamples()
     check(samples == [float(k) for k in range(frames)], f"{name}: points sampled at {samples[:5]}..., not 0..{frames - 1}")
@@ -182,7 +201,7 @@ def check_stage(path, run_dir, run):
     for e in checker.GetErrors() + checker.GetFailedChecks():
         check(False, f"{name}: compliance: {e}")
     print(
-        f"{name}: {cloth.GetTypeName()} with {len(counts)} triangles, {frames} time samples at "
+        f"{name}: {cloth.GetTypeName()} with {len(counts)} {'faces' if mesh_cloth else 'triangles'}, {frames} time samples at "
         f"{stage.GetTimeCodesPerSecond()} per second, {len(run['colliders'])} collider(s); "
         f"compliance checker: {len(checker.GetErrors())} errors, {len(checker.GetFailedChecks())} failed checks"
     )

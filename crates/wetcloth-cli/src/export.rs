@@ -78,7 +78,6 @@ pub fn write_caches(
         }
     }
     if !quiet {
-        let [nx, nz] = folder.info.resolution;
         for job in &jobs {
             let size = std::fs::metadata(&job.out).map(|m| m.len()).unwrap_or(0);
             println!(
@@ -86,7 +85,7 @@ pub fn write_caches(
                 job.out.display(),
                 job.format,
                 folder.info.frames,
-                nx * nz,
+                folder.info.vertices(),
                 bytes(size)
             );
         }

@@ -2,6 +2,8 @@
 //!
 //! The run directory holds `frames/frame_NNNN.obj` (one mesh per written frame), `rest.obj` (a
 //! copy of frame 0, the mesh point caches apply to), `metrics.csv` (one row per frame), `pockets.csv` (one row per sealed air pocket per frame),
+//! `grabs.csv` (one row per scene grab per frame: its particles and force on the cloth),
+//! `meshes/` (copies of the mesh files the scene read, a mesh cloth's among them),
 //! `scene.toml` (the scene with every key explicit) and `run.json`; with `--export`, caches. Frame
 //! `k` is the state at the first step whose time is at least `k / frame_rate`; frame 0 is the
 //! state at t = 0. Every file is complete on disk as soon as it is named: frames, `scene.toml`
@@ -23,10 +25,10 @@ use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use wetcloth::metrics::COLUMNS;
-use wetcloth::{Real, Simulation};
+use wetcloth::{ClothSurface, Real, Simulation};
 use wetcloth_export::{
-    MetricsCsv, PocketsCsv, RunInfo, RunStatus, create_fresh, frame_file_name, is_frame_file_name,
-    write_atomically, write_obj,
+    GrabsCsv, MetricsCsv, PocketsCsv, RunInfo, RunStatus, create_fresh, frame_file_name,
+    is_frame_file_name, write_atomically, write_obj,
 };
 use wetcloth_scene::Scene;
 
@@ -109,9 +111,10 @@ struct Start {
     time: Real,
     /// Frames between checkpoints.
     every: u64,
-    /// For a resumed run: the byte lengths to cut `metrics.csv` and `pockets.csv` back to, and
-    /// the checkpoint it continues from (for `run.json`).
-    resumed: Option<(u64, u64, CheckpointNote)>,
+    /// For a resumed run: the byte lengths to cut `metrics.csv` and `pockets.csv` back to,
+    /// that of `grabs.csv` (`None` for a checkpoint of a version that wrote none: it starts
+    /// again from the resumed frame), and the checkpoint it continues from (for `run.json`).
+    resumed: Option<(u64, u64, Option<u64>, CheckpointNote)>,
 }
 
 /// Where the last checkpoint is and how far it had got: the `checkpoint` object of `run.json`
@@ -245,7 +248,7 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
             ckpt_path.display()
         )));
     }
-    let scene = wetcloth_scene::load(&scene_path)?;
+    let scene = load_run_scene(dir, &scene_path, &toml)?;
     // The files the run read besides its scene (meshes) must hold what they held.
     let now = checkpoint::inputs(&scene.config);
     for (k, (file, was)) in saved.inputs.iter().enumerate() {
@@ -284,15 +287,24 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
             last + 1
         )));
     }
-    let (csv_len, pockets_len) = match saved.appended.as_slice() {
-        [(a, m), (b, p)] if a == "metrics.csv" && b == "pockets.csv" => (*m, *p),
+    let (csv_len, pockets_len, grabs_len) = match saved.appended.as_slice() {
+        [(a, m), (b, p), (c, g)] if a == "metrics.csv" && b == "pockets.csv" && c == GRABS_CSV => {
+            (*m, *p, Some(*g))
+        }
+        // Taken by a version that wrote no grabs.csv.
+        [(a, m), (b, p)] if a == "metrics.csv" && b == "pockets.csv" => (*m, *p, None),
         _ => {
             return Err(damaged(
-                "it does not list metrics.csv and pockets.csv".into(),
+                "it does not list metrics.csv, pockets.csv and grabs.csv".into(),
             ));
         }
     };
-    for (name, len) in [("metrics.csv", csv_len), ("pockets.csv", pockets_len)] {
+    let appended = [
+        ("metrics.csv", Some(csv_len)),
+        ("pockets.csv", Some(pockets_len)),
+        (GRABS_CSV, grabs_len),
+    ];
+    for (name, len) in appended.into_iter().filter_map(|(n, l)| l.map(|l| (n, l))) {
         let path = dir.join(name);
         let have = fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
         if have < len {
@@ -323,7 +335,7 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
         frames: saved.frames,
         time: saved.frame_time,
         every: saved.every,
-        resumed: Some((csv_len, pockets_len, note)),
+        resumed: Some((csv_len, pockets_len, grabs_len, note)),
     };
     let sim = Simulation::restore(scene.config.clone(), saved.sim).map_err(|e| {
         CliError::Input(format!(
@@ -341,6 +353,67 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
         );
     }
     bake(args, &scene, dir, sim, start, quiet)
+}
+
+/// The name of the grab forces file in a run folder.
+const GRABS_CSV: &str = "grabs.csv";
+
+/// The scene of the run in `dir` (its `scene.toml` at `scene_path`, bytes `toml`), to resume
+/// it: a mesh cloth is read from the copy the run kept (`run.json`'s `mesh.copy`, checked
+/// against its digest), so that the run goes on when the original file was moved or changed;
+/// the cloth keeps the original's name. Everything else is read as the scene says.
+fn load_run_scene(dir: &Path, scene_path: &Path, toml: &[u8]) -> Result<Scene, CliError> {
+    let copy = fs::read(dir.join("run.json"))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .and_then(|v| v.get("mesh").cloned())
+        .and_then(|m| serde_json::from_value::<wetcloth_export::ClothMeshInfo>(m).ok());
+    let Some(info) = copy else {
+        return Ok(wetcloth_scene::load(scene_path)?);
+    };
+    let bad = |why: String| {
+        CliError::Input(format!(
+            "{}: {why}; run the scene again",
+            dir.join("run.json").display()
+        ))
+    };
+    wetcloth_export::read_cloth_copy(dir, &info).map_err(bad)?;
+    let text = String::from_utf8_lossy(toml);
+    let copy_path = std::path::absolute(dir.join(&info.copy)).unwrap_or(dir.join(&info.copy));
+    let quoted =
+        serde_json::to_string(&copy_path.display().to_string()).expect("a string serialises");
+    // `[cloth]`'s `mesh = "..."` line, as the resolved scene writes it.
+    let mut in_cloth = false;
+    let mut replaced = false;
+    let mut lines = Vec::new();
+    for line in text.lines() {
+        if line.starts_with('[') {
+            in_cloth = line.trim() == "[cloth]";
+        }
+        if in_cloth && !replaced && line.starts_with("mesh = ") {
+            lines.push(format!("mesh = {quoted}"));
+            replaced = true;
+        } else {
+            lines.push(line.to_string());
+        }
+    }
+    if !replaced {
+        return Err(bad(format!(
+            "run.json describes a mesh cloth, {} has no [cloth] mesh",
+            scene_path.display()
+        )));
+    }
+    let mut scene = wetcloth_scene::parse(&(lines.join("\n") + "\n"), scene_path)?;
+    if let Some(m) = scene.config.cloth.mesh.as_mut() {
+        m.file = info.file.clone();
+        if wetcloth_export::cloth_copy(m).1 != u64::from_str_radix(&info.digest, 16).unwrap_or(0) {
+            return Err(bad(format!(
+                "{} does not read back as the cloth the run read",
+                info.copy
+            )));
+        }
+    }
+    Ok(scene)
 }
 
 /// Writes the frames of `scene` from `start` on into `dir`, with checkpoints.
@@ -369,8 +442,11 @@ fn bake(
     // run.json first: from now on it says a run is writing here (an earlier run's
     // "complete" must not outlive the frames removed next).
     let json_path = dir.join("run.json");
+    let base = RunInfo::new(&scene.name, &config, 0, false);
     let info = |frames: u64, status: RunStatus, time: Real| {
-        RunInfo::new(&scene.name, &config, frames, false).with_status(status, time)
+        let mut i = base.clone().with_status(status, time);
+        i.frames = frames;
+        i
     };
     let frames_dir = dir.join("frames");
     fs::create_dir_all(&frames_dir).map_err(CliError::output(&frames_dir))?;
@@ -378,8 +454,12 @@ fn bake(
     // however large the mesh, though rewritten after every frame).
     wetcloth_export::write_mesh_copies(&dir, &config.colliders)
         .map_err(CliError::output(dir.join("meshes")))?;
+    // A mesh cloth's file too: exports and a resumed run read the copy.
+    if let Some(m) = &config.cloth.mesh {
+        wetcloth_export::write_cloth_copy(&dir, m).map_err(CliError::output(dir.join("meshes")))?;
+    }
     // The last checkpoint written, for run.json.
-    let mut note = start.resumed.map(|(_, _, n)| n);
+    let mut note = start.resumed.map(|(_, _, _, n)| n);
     write_run_json(
         &json_path,
         &info(start.frames, RunStatus::Running, start.time),
@@ -392,6 +472,7 @@ fn bake(
     let started = Instant::now();
     let csv_path = dir.join("metrics.csv");
     let pockets_path = dir.join("pockets.csv");
+    let grabs_path = dir.join(GRABS_CSV);
     let mut body = || -> Result<Ending, CliError> {
         prepare_dir(&frames_dir, start.frames)?;
         if start.resumed.is_none() {
@@ -411,9 +492,9 @@ fn bake(
         // Fresh files, or (resumed) the files cut back to the checkpoint: rows a killed run
         // wrote after it are written again; the header is already there and the writers'
         // own is dropped.
-        let (csv_cut, pockets_cut) = match start.resumed {
-            Some((m, p, _)) => (Some(m), Some(p)),
-            None => (None, None),
+        let (csv_cut, pockets_cut, grabs_cut) = match start.resumed {
+            Some((m, p, g, _)) => (Some(m), Some(p), g),
+            None => (None, None, None),
         };
         let metrics_header = wetcloth_export::csv_header().len() as u64 + 1;
         let mut csv = MetricsCsv::new(open_appended(&csv_path, csv_cut, metrics_header)?)
@@ -422,6 +503,9 @@ fn bake(
         let mut pockets_csv =
             PocketsCsv::new(open_appended(&pockets_path, pockets_cut, pockets_header)?)
                 .map_err(CliError::output(&pockets_path))?;
+        let grabs_header = wetcloth_export::GRABS_CSV_HEADER.len() as u64 + 1;
+        let mut grabs_csv = GrabsCsv::new(open_appended(&grabs_path, grabs_cut, grabs_header)?)
+            .map_err(CliError::output(&grabs_path))?;
         let scene_digest = checkpoint::digest(
             &fs::read(dir.join("scene.toml")).map_err(CliError::output(dir.join("scene.toml")))?,
         );
@@ -430,12 +514,13 @@ fn bake(
         let rate = config.simulation.frame_rate;
         progress.set_length(frame_step(last, rate, dt));
         progress.set_position(sim.step_count());
-        let grid = sim.grid().clone();
-        let uvs = grid.uvs();
+        // The faces and texture coordinates the frames have: a mesh cloth's as its file has them.
+        let surface = ClothSurface::new(&config.cloth);
 
         let write_frame = |sim: &Simulation,
                            csv: &mut MetricsCsv<Appended>,
                            pockets_csv: &mut PocketsCsv<Appended>,
+                           grabs_csv: &mut GrabsCsv<Appended>,
                            k: u64|
          -> Result<(), CliError> {
             let metrics = sim.metrics();
@@ -447,16 +532,17 @@ fn bake(
                 });
             }
             let path = frames_dir.join(frame_file_name(k));
-            let normals = grid.vertex_normals(sim.positions());
-            write_atomically(&path, |w| {
-                write_obj(w, &grid, sim.positions(), &normals, &uvs)
-            })
-            .map_err(CliError::output(&path))?;
+            let normals = surface.vertex_normals(sim.positions());
+            write_atomically(&path, |w| write_obj(w, &surface, sim.positions(), &normals))
+                .map_err(CliError::output(&path))?;
             csv.write_row(k, &metrics)
                 .map_err(CliError::output(&csv_path))?;
             pockets_csv
-                .write_frame(k, sim.time(), &sim.pocket_reports())
+                .write_frame(k, sim.time(), &wetcloth_export::pocket_reports(sim))
                 .map_err(CliError::output(&pockets_path))?;
+            grabs_csv
+                .write_frame(k, sim.time(), &sim.grab_forces())
+                .map_err(CliError::output(&grabs_path))?;
             crate::pocket_labels::write_frame(&frames_dir, sim, k)?;
             if k == 0 {
                 wetcloth_export::write_rest_obj(&dir).map_err(|e| match e {
@@ -478,6 +564,7 @@ fn bake(
                     appended: vec![
                         ("metrics.csv".into(), csv_len(&csv_path)?),
                         ("pockets.csv".into(), csv_len(&pockets_path)?),
+                        (GRABS_CSV.into(), csv_len(&grabs_path)?),
                     ],
                     inputs: checkpoint::inputs(&config),
                     sim: sim.checkpoint(),
@@ -540,7 +627,7 @@ fn bake(
                 frames: written,
                 dir: dir.clone(),
             })?;
-            write_frame(&sim, &mut csv, &mut pockets_csv, k)?;
+            write_frame(&sim, &mut csv, &mut pockets_csv, &mut grabs_csv, k)?;
             (written, time) = (k + 1, sim.time());
             if k == last {
                 // Complete: run.json says so first, then the checkpoint goes (a kill in
@@ -786,7 +873,7 @@ fn progress_bar(total_steps: u64, quiet: bool) -> ProgressBar {
 fn print_summary(scene: &Scene, sim: &Simulation, dir: &Path, frames: u64, wall: Duration) {
     let steps = sim.step_count();
     let secs = wall.as_secs_f64().max(1e-9);
-    let particles = sim.grid().len() as f64;
+    let particles = sim.particle_count() as f64;
     let sps = steps as f64 / secs;
     println!("wetcloth run: {} -> {}", scene.name, dir.display());
     println!(
@@ -798,7 +885,7 @@ fn print_summary(scene: &Scene, sim: &Simulation, dir: &Path, frames: u64, wall:
         "  simulated  {} s in {steps} steps of {} s ({} particles)",
         human(sim.time()),
         human(sim.time_step()),
-        sim.grid().len()
+        sim.particle_count()
     );
     println!(
         "  wall time  {secs:.3} s: {sps:.0} steps/s, {:.3e} particle-steps/s on {} thread(s)",

@@ -10,7 +10,7 @@
 
 use std::fs::File;
 use std::io::BufWriter;
-use wetcloth::{ClothParams, Grid, SimConfig};
+use wetcloth::{ClothSurface, SimConfig};
 use wetcloth_export::{AbcWriter, CacheSpec, CacheWriter, Frame, RunInfo};
 
 fn main() -> std::io::Result<()> {
@@ -21,22 +21,11 @@ fn main() -> std::io::Result<()> {
     let mut config = SimConfig::default();
     config.cloth.resolution = [nx, nz];
     let run = RunInfo::new("synthetic", &config, frames, true);
-    let grid = Grid::new(&ClothParams {
-        resolution: run.resolution,
-        size: run.size,
-        ..ClothParams::default()
-    });
-    let triangles = grid.triangles();
-    let uvs: Vec<[f32; 2]> = grid
-        .uvs()
-        .iter()
-        .map(|[u, v]| [*u as f32, *v as f32])
-        .collect();
+    let surface = ClothSurface::new(&config.cloth);
     let spec = CacheSpec {
         run: &run,
         frames,
-        triangles: &triangles,
-        uvs: &uvs,
+        surface: &surface,
         params: &[],
     };
     let file = BufWriter::with_capacity(1 << 20, File::create(out)?);

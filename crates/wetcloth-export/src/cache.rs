@@ -19,6 +19,7 @@ use crate::params::SceneParam;
 use std::fmt;
 use std::io;
 use std::str::FromStr;
+use wetcloth::ClothSurface;
 
 /// The cache formats `wetcloth export --format` and `wetcloth run --export` know.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -137,20 +138,29 @@ pub struct CacheSpec<'a> {
     pub run: &'a RunInfo,
     /// Frames the cache will hold: frame 0 up to `frames - 1`, each fed once, in order.
     pub frames: u64,
-    /// Triangles of the cloth (0-based particle indices, wound counter-clockwise seen from the
-    /// side their normal points to).
-    pub triangles: &'a [[u32; 3]],
-    /// Texture coordinates, one per particle.
-    pub uvs: &'a [[f32; 2]],
+    /// The cloth's faces and texture coordinates as the frames have them: the grid's
+    /// triangles with a texture coordinate per particle, or a mesh cloth's polygons in the
+    /// file's order and winding with its face-varying texture coordinates (counter-clockwise
+    /// seen from the side their normal points to).
+    pub surface: &'a ClothSurface,
     /// The scene's parameters (see [`crate::scene_params`]), written into USD stages as custom
     /// attributes.
     pub params: &'a [SceneParam],
 }
 
 impl CacheSpec<'_> {
-    /// Vertices per frame: the run's `nx * nz` particles.
+    /// Vertices per frame: the cloth's particles.
     pub fn vertices(&self) -> usize {
-        self.run.resolution[0] * self.run.resolution[1]
+        self.surface.vertices
+    }
+
+    /// The texture coordinates in single precision.
+    pub fn uvs_f32(&self) -> Vec<[f32; 2]> {
+        self.surface
+            .uvs
+            .iter()
+            .map(|&[u, v]| [u as f32, v as f32])
+            .collect()
     }
 
     /// Time of frame `k` in seconds: `k / frame_rate`.

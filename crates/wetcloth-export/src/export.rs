@@ -11,7 +11,7 @@ use crate::{RunInfo, frame_file_name};
 use std::fs::{self, File};
 use std::io::{self, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
-use wetcloth::{ClothParams, Grid};
+use wetcloth::{ClothParams, ClothSurface, Vec3};
 
 /// Name of the rest mesh in a run folder.
 pub const REST_OBJ: &str = "rest.obj";
@@ -74,6 +74,9 @@ pub struct RunFolder {
     pub info: RunInfo,
     /// The scene's parameters (from `scene.toml`; empty when the folder has none).
     pub params: Vec<SceneParam>,
+    /// The cloth's faces and texture coordinates, as the frames have them: the grid's, or a
+    /// mesh cloth's read from its copy in the folder (`run.json`'s `mesh.copy`).
+    pub surface: ClothSurface,
 }
 
 /// Reads `run.json` and `scene.toml` of a run folder and checks that frames can be exported.
@@ -93,19 +96,50 @@ pub fn read_run_folder(run_dir: &Path) -> Result<RunFolder, ExportError> {
     let text = fs::read_to_string(&json)
         .map_err(|e| ExportError::Input(format!("{}: cannot read: {e}", json.display())))?;
     let info: RunInfo = crate::read_run_json(run_dir, &text).map_err(ExportError::Input)?;
-    let [nx, nz] = info.resolution;
-    if nx < 2 || nz < 2 {
-        return Err(ExportError::Input(format!(
-            "{}: resolution = [{nx}, {nz}]: each must be at least 2",
-            json.display()
-        )));
-    }
-    if nx.checked_mul(nz).is_none_or(|n| n > i32::MAX as usize) {
-        return Err(ExportError::Input(format!(
-            "{}: resolution = [{nx}, {nz}]: more particles than a cache can hold (2^31 - 1)",
-            json.display()
-        )));
-    }
+    let surface = match (&info.mesh, info.resolution) {
+        (Some(m), _) => {
+            let src = crate::read_cloth_copy(run_dir, m)
+                .map_err(|e| ExportError::Input(format!("{}: {e}", json.display())))?;
+            ClothSurface::new(&ClothParams {
+                position: Vec3::from(m.position),
+                mesh: Some(src),
+                ..ClothParams::default()
+            })
+        }
+        (None, Some([nx, nz])) => {
+            if nx < 2 || nz < 2 {
+                return Err(ExportError::Input(format!(
+                    "{}: resolution = [{nx}, {nz}]: each must be at least 2",
+                    json.display()
+                )));
+            }
+            if nx.checked_mul(nz).is_none_or(|n| n > i32::MAX as usize) {
+                return Err(ExportError::Input(format!(
+                    "{}: resolution = [{nx}, {nz}]: more particles than a cache can hold \
+                     (2^31 - 1)",
+                    json.display()
+                )));
+            }
+            let size = info.size.ok_or_else(|| {
+                ExportError::Input(format!(
+                    "{}: not a wetcloth run.json: resolution without size",
+                    json.display()
+                ))
+            })?;
+            ClothSurface::new(&ClothParams {
+                resolution: [nx, nz],
+                size,
+                ..ClothParams::default()
+            })
+        }
+        (None, None) => {
+            return Err(ExportError::Input(format!(
+                "{}: not a wetcloth run.json: it describes no cloth (neither resolution nor \
+                 mesh)",
+                json.display()
+            )));
+        }
+    };
     if info.frames == 0 {
         return Err(ExportError::Input(format!(
             "{}: frames = 0: the run wrote no frame to export",
@@ -131,7 +165,11 @@ pub fn read_run_folder(run_dir: &Path) -> Result<RunFolder, ExportError> {
             )));
         }
     };
-    Ok(RunFolder { info, params })
+    Ok(RunFolder {
+        info,
+        params,
+        surface,
+    })
 }
 
 /// Writes `RUN_DIR/rest.obj`, the mesh the point caches apply to: a copy of frame 0 (vertex `k`
@@ -173,22 +211,10 @@ pub fn export_run(
 ) -> Result<RunFolder, ExportError> {
     let folder = read_run_folder(run_dir)?;
     let info = &folder.info;
-    let grid = Grid::new(&ClothParams {
-        resolution: info.resolution,
-        size: info.size,
-        ..ClothParams::default()
-    });
-    let triangles = grid.triangles();
-    let uvs: Vec<[f32; 2]> = grid
-        .uvs()
-        .iter()
-        .map(|[u, v]| [*u as f32, *v as f32])
-        .collect();
     let spec = CacheSpec {
         run: info,
         frames: info.frames,
-        triangles: &triangles,
-        uvs: &uvs,
+        surface: &folder.surface,
         params: &folder.params,
     };
 
@@ -209,12 +235,22 @@ pub fn export_run(
     let mut bufs = FrameBuffers::default();
     for k in 0..info.frames {
         let path = frames_dir.join(frame_file_name(k));
-        read_obj_frame(&path, spec.vertices(), triangles.len(), &mut bufs).map_err(|e| {
+        read_obj_frame(
+            &path,
+            spec.vertices(),
+            folder.surface.face_count(),
+            &mut bufs,
+        )
+        .map_err(|e| {
             let hint = if e.io {
                 format!(" (run.json says the run wrote {} frames)", info.frames)
             } else {
                 String::new()
             };
+            let mut e = e.to_string();
+            if info.mesh.is_some() {
+                e = e.replace("run.json's resolution", "run.json's mesh");
+            }
             ExportError::Input(format!("{e}{hint}"))
         })?;
         let frame = Frame {

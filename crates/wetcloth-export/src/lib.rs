@@ -3,8 +3,11 @@
 //! Writers for the files of a run directory, each to any [`std::io::Write`], with no physics:
 //!
 //! - [`write_obj`]: one frame of the cloth as a Wavefront OBJ mesh (Y-up, metres, with UVs and
-//!   normals; vertex `k` is particle `k` in every frame, so Blender can import a sequence);
+//!   normals; vertex `k` is particle `k` in every frame, so Blender can import a sequence; a
+//!   mesh cloth keeps its file's faces and texture seams, see [`wetcloth::ClothSurface`]);
 //! - [`MetricsCsv`]: `metrics.csv`, one row per written frame, columns [`CSV_HEADER`];
+//! - [`GrabsCsv`]: `grabs.csv`, each scene grab's force on the cloth, one row per grab per
+//!   frame, columns [`GRABS_CSV_HEADER`];
 //! - [`write_pocket_labels`] and [`parse_pocket_labels`]: `frames/frame_NNNN.pockets`, each
 //!   particle's sealed air pocket in one frame (pockets air model; see the `labels` format);
 //! - [`RunInfo`] and [`write_run_json`]: `run.json`, what a renderer needs to know about the
@@ -40,20 +43,26 @@ pub mod usd;
 pub use abc::AbcWriter;
 pub use atomic::{create_fresh, part_path, remove_if_present, write_atomically};
 pub use cache::{CacheFormat, CacheSpec, CacheWriter, Frame};
-pub use csv::{CSV_HEADER, MetricsCsv, POCKETS_CSV_HEADER, PocketsCsv, csv_header};
+pub use csv::{
+    CSV_HEADER, GRABS_CSV_HEADER, GrabsCsv, MetricsCsv, POCKETS_CSV_HEADER, PocketsCsv, csv_header,
+};
 pub use export::{
     ExportError, ExportJob, REST_OBJ, RunFolder, export_run, read_run_folder, write_rest_obj,
 };
 pub use labels::{
     LabelsError, NO_POCKET, POCKET_LABELS_MAGIC, is_pocket_labels_file_name, parse_pocket_labels,
-    particle_pocket_ids, pocket_labels_file_name, write_pocket_labels,
+    particle_pocket_ids, pocket_labels_file_name, pocket_reports, write_pocket_labels,
 };
-pub use mesh_copy::{read_colliders, read_run_json, write_mesh_copies};
+pub use mesh_copy::{
+    cloth_copy, read_cloth_copy, read_colliders, read_run_json, write_cloth_copy, write_mesh_copies,
+};
 pub use obj::write_obj;
 pub use params::{ParamValue, SceneParam, scene_params};
 pub use pointcache::{MddWriter, PC2_SIGNATURE, Pc2Writer};
 pub use read::{FrameBuffers, FrameError, read_obj_frame};
-pub use run_json::{RunInfo, RunStatus, incomplete, write_run_json, write_run_json_file};
+pub use run_json::{
+    ClothMeshInfo, RunInfo, RunStatus, incomplete, write_run_json, write_run_json_file,
+};
 pub use timing::{frame_step, last_frame, step_at};
 pub use usd::{PLANE_HALF_SIDE, PLANE_MIN_HALF_SIDE, UsdaWriter, UsdcWriter};
 

@@ -11,9 +11,202 @@ use std::path::Path;
 
 use wetcloth::collide::mesh::{copy_name, mesh_digest};
 use wetcloth::collide::{Key, Mesh};
-use wetcloth::{Collider, Shape, Vec3};
+use wetcloth::{ClothMeshSource, Collider, Real, Shape, Vec3};
 
 use crate::RunInfo;
+use crate::run_json::ClothMeshInfo;
+
+/// FNV-1a (64 bit) of `bytes`.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// The copy of a mesh cloth kept in the run folder: its name there
+/// (`meshes/cloth-<digest>.obj`), the FNV-1a digest of its bytes, and the bytes. The copy is
+/// the mesh as read, in the file's units: a `v` line per vertex, a `vt` line per texture
+/// coordinate and an `f` line per face (`f v/vt` corners where the file has them), every
+/// number the shortest decimal that reads back to the same value, so a cloth read from the copy
+/// is the cloth the run read.
+pub fn cloth_copy(m: &ClothMeshSource) -> (String, u64, Vec<u8>) {
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "# wetcloth cloth mesh: {} vertices, {} faces, {} texture coordinates, in the file's units",
+        m.vertices.len(),
+        m.faces.len(),
+        m.uvs.len()
+    );
+    for v in m.vertices.iter() {
+        let _ = writeln!(t, "v {:?} {:?} {:?}", v.x, v.y, v.z);
+    }
+    for [u, v] in m.uvs.iter() {
+        let _ = writeln!(t, "vt {u:?} {v:?}");
+    }
+    for (k, f) in m.faces.iter().enumerate() {
+        t.push('f');
+        match m.face_uvs.get(k).filter(|u| u.len() == f.len()) {
+            Some(uv) => {
+                for (a, b) in f.iter().zip(uv) {
+                    let _ = write!(t, " {}/{}", a + 1, b + 1);
+                }
+            }
+            None => {
+                for a in f {
+                    let _ = write!(t, " {}", a + 1);
+                }
+            }
+        }
+        t.push('\n');
+    }
+    let digest = fnv1a(t.as_bytes());
+    (
+        format!("meshes/cloth-{digest:016x}.obj"),
+        digest,
+        t.into_bytes(),
+    )
+}
+
+/// Writes the copy of a mesh cloth ([`cloth_copy`]) into `dir` unless it is there already.
+pub fn write_cloth_copy(dir: &Path, m: &ClothMeshSource) -> io::Result<()> {
+    let (name, _, bytes) = cloth_copy(m);
+    let path = dir.join(name);
+    if path.is_file() {
+        return Ok(());
+    }
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent)?;
+    }
+    crate::write_atomically(&path, |w| w.write_all(&bytes))
+}
+
+/// The mesh cloth `run.json` describes (`mesh`), read from its copy in the run folder `dir`
+/// and checked against its digest and counts. `Err` says what is wrong, naming the file and
+/// line.
+pub fn read_cloth_copy(dir: &Path, info: &ClothMeshInfo) -> Result<ClothMeshSource, String> {
+    let expected = u64::from_str_radix(&info.digest, 16)
+        .ok()
+        .filter(|_| info.digest.len() == 16)
+        .ok_or_else(|| format!("mesh.digest = {:?} is not 16 hex digits", info.digest))?;
+    let name = format!("meshes/cloth-{expected:016x}.obj");
+    if info.copy != name {
+        return Err(format!(
+            "mesh.copy = {:?} is not the copy of a cloth of digest {} ({name})",
+            info.copy, info.digest
+        ));
+    }
+    let path = dir.join(&name);
+    if std::fs::metadata(&path).is_ok_and(|m| !m.is_file()) {
+        return Err(format!(
+            "{}: the cloth's copy is not a regular file",
+            path.display()
+        ));
+    }
+    let bytes = std::fs::read(&path)
+        .map_err(|e| format!("{}: cannot read the cloth's copy: {e}", path.display()))?;
+    let found = fnv1a(&bytes);
+    if found != expected {
+        return Err(format!(
+            "{}: the cloth's copy was changed (its digest is {found:016x}, run.json records {})",
+            path.display(),
+            info.digest
+        ));
+    }
+    let text = String::from_utf8(bytes)
+        .map_err(|_| format!("{}: the cloth's copy is not UTF-8 text", path.display()))?;
+    let (mut vertices, mut uvs, mut faces, mut face_uvs) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (n, line) in text.lines().enumerate() {
+        let bad = || {
+            format!(
+                "{}:{}: not a wetcloth cloth copy line: {line:?}",
+                path.display(),
+                n + 1
+            )
+        };
+        let mut words = line.split_ascii_whitespace();
+        match words.next() {
+            Some("v") => {
+                let mut c = [0.0; 3];
+                for x in &mut c {
+                    *x = words.next().and_then(|w| w.parse().ok()).ok_or_else(bad)?;
+                }
+                vertices.push(Vec3::from(c));
+            }
+            Some("vt") => {
+                let mut c: [Real; 2] = [0.0; 2];
+                for x in &mut c {
+                    *x = words.next().and_then(|w| w.parse().ok()).ok_or_else(bad)?;
+                }
+                uvs.push(c);
+            }
+            Some("f") => {
+                let (mut f, mut fu) = (Vec::new(), Vec::new());
+                for w in words.by_ref() {
+                    let mut parts = w.split('/');
+                    let index = |p: Option<&str>, count: usize| {
+                        p.and_then(|p| p.parse::<u32>().ok())
+                            .filter(|&k| k >= 1 && (k as usize) <= count)
+                            .map(|k| k - 1)
+                    };
+                    f.push(index(parts.next(), vertices.len()).ok_or_else(bad)?);
+                    if let Some(t) = parts.next() {
+                        fu.push(index(Some(t), uvs.len()).ok_or_else(bad)?);
+                    }
+                }
+                if f.len() < 3 || !(fu.is_empty() || fu.len() == f.len()) {
+                    return Err(bad());
+                }
+                faces.push(f);
+                face_uvs.push(fu);
+            }
+            Some(w) if w.starts_with('#') => continue,
+            None => continue,
+            Some(_) => return Err(bad()),
+        }
+        if words.next().is_some() {
+            return Err(bad());
+        }
+    }
+    let with_uv = face_uvs.iter().filter(|u| !u.is_empty()).count();
+    if with_uv == 0 {
+        face_uvs.clear();
+    } else if with_uv != faces.len() {
+        return Err(format!(
+            "{}: some faces have texture coordinates and some do not",
+            path.display()
+        ));
+    }
+    if (vertices.len(), faces.len(), uvs.len())
+        != (info.vertices, info.faces, info.texture_coordinates)
+    {
+        return Err(format!(
+            "{}: {} vertices, {} faces and {} texture coordinates where run.json's mesh says \
+             {}, {} and {}",
+            path.display(),
+            vertices.len(),
+            faces.len(),
+            uvs.len(),
+            info.vertices,
+            info.faces,
+            info.texture_coordinates
+        ));
+    }
+    Ok(ClothMeshSource {
+        file: info.file.clone(),
+        vertices: std::sync::Arc::new(vertices),
+        faces: std::sync::Arc::new(faces),
+        uvs: std::sync::Arc::new(uvs),
+        face_uvs: std::sync::Arc::new(face_uvs),
+        rotation: Vec3::from(info.rotation),
+        scale: info.scale,
+        flip_normals: info.flip_normals,
+    })
+}
 
 /// Writes `dir/meshes/<digest>.obj` for every mesh collider of `colliders` that has no copy
 /// there yet: its vertices (`v x y z`, every coordinate as the shortest decimal that reads

@@ -172,14 +172,20 @@ mod tests {
         RunInfo::new("t", &cfg, 3, true)
     }
 
-    fn spec(run: &RunInfo) -> CacheSpec<'_> {
+    fn spec<'a>(run: &'a RunInfo, surface: &'a wetcloth::ClothSurface) -> CacheSpec<'a> {
         CacheSpec {
             run,
             frames: 3,
-            triangles: &[],
-            uvs: &[],
+            surface,
             params: &[],
         }
+    }
+
+    fn surface() -> wetcloth::ClothSurface {
+        wetcloth::ClothSurface::new(&wetcloth::ClothParams {
+            resolution: [2, 2],
+            ..Default::default()
+        })
     }
 
     /// Frame `k`: vertex `v` at (k + v/4, -v, 0.5 k), exactly representable in f32.
@@ -204,7 +210,7 @@ mod tests {
     #[test]
     fn pc2_header_bytes_are_little_endian_as_computed_by_hand() {
         let run = run();
-        let mut w = Pc2Writer::new(Vec::new(), &spec(&run)).unwrap();
+        let mut w = Pc2Writer::new(Vec::new(), &spec(&run, &surface())).unwrap();
         feed(&mut w, 3);
         let bytes = w.into_inner();
         #[rustfmt::skip]
@@ -229,7 +235,7 @@ mod tests {
     #[test]
     fn mdd_header_bytes_are_big_endian_with_frame_times() {
         let run = run();
-        let mut w = MddWriter::new(Vec::new(), &spec(&run)).unwrap();
+        let mut w = MddWriter::new(Vec::new(), &spec(&run, &surface())).unwrap();
         feed(&mut w, 3);
         let bytes = w.into_inner();
         #[rustfmt::skip]
@@ -253,8 +259,8 @@ mod tests {
     #[test]
     fn positions_round_trip_through_both_caches() {
         let run = run();
-        let mut pc2 = Pc2Writer::new(Vec::new(), &spec(&run)).unwrap();
-        let mut mdd = MddWriter::new(Vec::new(), &spec(&run)).unwrap();
+        let mut pc2 = Pc2Writer::new(Vec::new(), &spec(&run, &surface())).unwrap();
+        let mut mdd = MddWriter::new(Vec::new(), &spec(&run, &surface())).unwrap();
         feed(&mut pc2, 3);
         feed(&mut mdd, 3);
         let (pc2, mdd) = (pc2.into_inner(), mdd.into_inner());
@@ -274,7 +280,7 @@ mod tests {
     #[test]
     fn frames_out_of_order_short_or_missing_are_refused() {
         let run = run();
-        let mut w = Pc2Writer::new(Vec::new(), &spec(&run)).unwrap();
+        let mut w = Pc2Writer::new(Vec::new(), &spec(&run, &surface())).unwrap();
         let p = positions(0);
         let skip = Frame {
             index: 1,

@@ -9,11 +9,18 @@ use wetcloth::{Collider, Real, SimConfig};
 pub struct RunInfo {
     /// Scene name.
     pub name: String,
-    /// Particles along x and z: `frame_NNNN.obj` has `nx * nz` vertices, particle `(i, j)` is
-    /// vertex `j * nx + i` (0-based).
-    pub resolution: [usize; 2],
-    /// Rest extent of the cloth along x and z, m.
-    pub size: [Real; 2],
+    /// The built-in grid's particles along x and z: `frame_NNNN.obj` has `nx * nz` vertices,
+    /// particle `(i, j)` is vertex `j * nx + i` (0-based). Absent for a mesh cloth (see
+    /// `mesh`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution: Option<[usize; 2]>,
+    /// Rest extent of the built-in grid along x and z, m. Absent for a mesh cloth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<[Real; 2]>,
+    /// A cloth of any shape (`[cloth] mesh`): its file, the copy of it kept in the run folder,
+    /// its vertex and face counts and placement. Absent for the built-in grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<ClothMeshInfo>,
     /// Radius of a particle's collision sphere, m (the cloth's half thickness plus margin): a
     /// cloth resting on a plane lies this far above it.
     pub particle_radius: Real,
@@ -48,8 +55,39 @@ pub struct RunInfo {
     /// `{"shape": "box", "center": [..], "half_extents": [..], ...}` (lengths in m). The
     /// description is the core's [`Collider`], so every reader draws every shape alike.
     pub colliders: Vec<Collider>,
-    /// Grabbed particles as grid indices `[column, row]`, in scene order.
+    /// Grabbed particles as grid indices `[column, row]`, in scene order; empty for a mesh
+    /// cloth (see `grabs.csv`).
     pub grabs: Vec<[usize; 2]>,
+}
+
+/// `run.json`'s `mesh`: a cloth of any shape. Particle `k` is the file's vertex `k`; the
+/// frames have the file's faces and texture coordinates (see [`wetcloth::ClothSurface`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ClothMeshInfo {
+    /// The file the scene named (absolute path, as the run read it).
+    pub file: String,
+    /// The copy of the mesh as read, in the run folder (`meshes/cloth-<digest>.obj`, see
+    /// [`crate::write_cloth_copy`]): exports and resumed runs read it, so they work when the
+    /// original file moves or changes.
+    pub copy: String,
+    /// FNV-1a digest of the copy's bytes, 16 hex digits.
+    pub digest: String,
+    /// Vertices (particles): every frame has this many `v` lines.
+    pub vertices: usize,
+    /// Faces (polygons, as the file has them): every frame has this many `f` lines.
+    pub faces: usize,
+    /// Texture coordinates (`vt` lines) of the file; 0 when it has none.
+    pub texture_coordinates: usize,
+    /// Where the file's origin is at t = 0, m.
+    pub position: [Real; 3],
+    /// Rotation about x, then y, then z, degrees.
+    pub rotation: [Real; 3],
+    /// The file's units to metres.
+    pub scale: Real,
+    /// Whether the physics reverses the faces' winding (the outputs keep the file's).
+    pub flip_normals: bool,
+    /// The cloth's bounds at t = 0, `[min, max]`, m.
+    pub bounds: [[Real; 3]; 2],
 }
 
 /// Where a run is, the `status` of `run.json`.
@@ -86,10 +124,37 @@ impl RunInfo {
     /// written; `status` is `complete` or `running` as `complete` says, `time` 0 (see
     /// [`RunInfo::with_status`]).
     pub fn new(name: &str, config: &SimConfig, frames: u64, complete: bool) -> Self {
+        let cloth = &config.cloth;
+        let mesh = cloth.mesh.as_ref().map(|m| {
+            let (copy, digest, _) = crate::mesh_copy::cloth_copy(m);
+            let placed = m.placed(cloth.position);
+            let mut bounds = [[Real::INFINITY; 3], [Real::NEG_INFINITY; 3]];
+            for p in &placed {
+                for (a, c) in p.to_array().into_iter().enumerate() {
+                    bounds[0][a] = bounds[0][a].min(c);
+                    bounds[1][a] = bounds[1][a].max(c);
+                }
+            }
+            ClothMeshInfo {
+                file: m.file.clone(),
+                copy,
+                digest: format!("{digest:016x}"),
+                vertices: m.vertices.len(),
+                faces: m.faces.len(),
+                texture_coordinates: m.uvs.len(),
+                position: cloth.position.to_array(),
+                rotation: m.rotation.to_array(),
+                scale: m.scale,
+                flip_normals: m.flip_normals,
+                bounds,
+            }
+        });
+        let grid = mesh.is_none();
         Self {
             name: name.to_string(),
-            resolution: config.cloth.resolution,
-            size: config.cloth.size,
+            resolution: grid.then_some(cloth.resolution),
+            size: grid.then_some(cloth.size),
+            mesh,
             particle_radius: config.cloth.particle_radius(),
             time_step: config.simulation.time_step,
             frame_rate: config.simulation.frame_rate,
@@ -104,7 +169,13 @@ impl RunInfo {
             time: 0.0,
             error: None,
             colliders: config.colliders.clone(),
-            grabs: config.grabs.iter().map(|g| g.particle).collect(),
+            // A mesh cloth's grabs name no grid particle (grabs.csv has each one's particles
+            // and force).
+            grabs: if grid {
+                config.grabs.iter().map(|g| g.particle).collect()
+            } else {
+                Vec::new()
+            },
         }
     }
 }
@@ -133,6 +204,44 @@ pub fn incomplete(run: &RunInfo) -> Option<String> {
 }
 
 impl RunInfo {
+    /// Vertices of every frame: the grid's `nx * nz`, or the mesh's vertex count (0 when
+    /// `run.json` gives neither).
+    pub fn vertices(&self) -> usize {
+        match (&self.mesh, self.resolution) {
+            (Some(m), _) => m.vertices,
+            (None, Some([nx, nz])) => nx.saturating_mul(nz),
+            (None, None) => 0,
+        }
+    }
+
+    /// The cloth's largest horizontal extent at rest, m: the grid's larger side, or the
+    /// larger of a mesh's x and z spans (sizes the ground planes the caches draw).
+    pub fn cloth_span(&self) -> Real {
+        match (&self.mesh, self.size) {
+            (Some(m), _) => {
+                let [lo, hi] = m.bounds;
+                (hi[0] - lo[0]).max(hi[2] - lo[2]).max(0.0)
+            }
+            (None, Some([x, z])) => x.max(z),
+            (None, None) => 0.0,
+        }
+    }
+
+    /// The cloth in words for the caches' descriptions: `50 x 50 particles` or `5 particles,
+    /// 2 faces (towel.obj)`.
+    pub fn cloth_words(&self) -> String {
+        match (&self.mesh, self.resolution) {
+            (Some(m), _) => {
+                let file = std::path::Path::new(&m.file)
+                    .file_name()
+                    .map_or(m.file.clone(), |f| f.to_string_lossy().into_owned());
+                format!("{} particles, {} faces ({file})", m.vertices, m.faces)
+            }
+            (None, Some([nx, nz])) => format!("{nx} x {nz} particles"),
+            (None, None) => "no cloth".into(),
+        }
+    }
+
     /// The same with `status` (and `complete` following it) and the simulated `time` of the
     /// last frame written, s.
     pub fn with_status(mut self, status: RunStatus, time: Real) -> Self {

@@ -1,6 +1,6 @@
 //! `wetcloth.run`: the command line's `run` from Python: frames at the same steps, the same
 //! metrics, and with `out` the same folder (frames, rest.obj, metrics.csv, pockets.csv,
-//! scene.toml, run.json; no checkpoints).
+//! grabs.csv, scene.toml, run.json, a mesh cloth's copy in meshes/; no checkpoints).
 
 use crate::scene::Scene;
 use crate::sim::pool;
@@ -11,10 +11,10 @@ use pyo3::types::PyDict;
 use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use wetcloth::{Real, Simulation};
+use wetcloth::{ClothSurface, Real, Simulation};
 use wetcloth_export::{
-    MetricsCsv, PocketsCsv, RunInfo, RunStatus, create_fresh, frame_file_name, frame_step,
-    is_frame_file_name, is_pocket_labels_file_name, last_frame, particle_pocket_ids,
+    GrabsCsv, MetricsCsv, PocketsCsv, RunInfo, RunStatus, create_fresh, frame_file_name,
+    frame_step, is_frame_file_name, is_pocket_labels_file_name, last_frame, particle_pocket_ids,
     pocket_labels_file_name, write_atomically, write_obj, write_pocket_labels, write_run_json_file,
 };
 
@@ -36,6 +36,9 @@ struct Folder {
     dir: PathBuf,
     metrics: MetricsCsv<fs::File>,
     pockets: PocketsCsv<fs::File>,
+    grabs: GrabsCsv<fs::File>,
+    /// The faces and texture coordinates of the frames.
+    surface: ClothSurface,
 }
 
 fn io_at(path: &Path) -> impl FnOnce(std::io::Error) -> String + '_ {
@@ -65,19 +68,27 @@ impl Folder {
         let metrics = MetricsCsv::new(create_fresh(&m).map_err(io_at(&m))?).map_err(io_at(&m))?;
         let p = dir.join("pockets.csv");
         let pockets = PocketsCsv::new(create_fresh(&p).map_err(io_at(&p))?).map_err(io_at(&p))?;
+        let g = dir.join("grabs.csv");
+        let grabs = GrabsCsv::new(create_fresh(&g).map_err(io_at(&g))?).map_err(io_at(&g))?;
+        let meshes = dir.join("meshes");
+        wetcloth_export::write_mesh_copies(dir, &scene.config.colliders).map_err(io_at(&meshes))?;
+        if let Some(m) = &scene.config.cloth.mesh {
+            wetcloth_export::write_cloth_copy(dir, m).map_err(io_at(&meshes))?;
+        }
         Ok(Self {
             dir: dir.to_path_buf(),
             metrics,
             pockets,
+            grabs,
+            surface: ClothSurface::new(&scene.config.cloth),
         })
     }
 
     fn write_frame(&mut self, sim: &Simulation, k: u64) -> Result<(), String> {
-        let grid = sim.grid();
         let path = self.dir.join("frames").join(frame_file_name(k));
-        let normals = grid.vertex_normals(sim.positions());
+        let normals = self.surface.vertex_normals(sim.positions());
         write_atomically(&path, |w| {
-            write_obj(w, grid, sim.positions(), &normals, &grid.uvs())
+            write_obj(w, &self.surface, sim.positions(), &normals)
         })
         .map_err(io_at(&path))?;
         let m = self.dir.join("metrics.csv");
@@ -86,8 +97,12 @@ impl Folder {
             .map_err(io_at(&m))?;
         let p = self.dir.join("pockets.csv");
         self.pockets
-            .write_frame(k, sim.time(), &sim.pocket_reports())
+            .write_frame(k, sim.time(), &wetcloth_export::pocket_reports(sim))
             .map_err(io_at(&p))?;
+        let g = self.dir.join("grabs.csv");
+        self.grabs
+            .write_frame(k, sim.time(), &sim.grab_forces())
+            .map_err(io_at(&g))?;
         if let Some(labels) = particle_pocket_ids(sim) {
             let path = self.dir.join("frames").join(pocket_labels_file_name(k));
             write_atomically(&path, |w| write_pocket_labels(w, &labels)).map_err(io_at(&path))?;
@@ -112,8 +127,11 @@ fn bake(
     keep_frames: bool,
 ) -> Result<Record, String> {
     let config = &scene.config;
+    let base = RunInfo::new(&scene.name, config, 0, false);
     let info = |frames: u64, status: RunStatus, time: Real| {
-        RunInfo::new(&scene.name, config, frames, false).with_status(status, time)
+        let mut i = base.clone().with_status(status, time);
+        i.frames = frames;
+        i
     };
     let mut folder = match out {
         Some(dir) => {
@@ -151,7 +169,7 @@ fn bake(
         let m = sim.metrics();
         rec.metrics
             .push(std::iter::once(k as f64).chain(m.values()).collect());
-        for p in sim.pocket_reports() {
+        for p in wetcloth_export::pocket_reports(&sim) {
             rec.pockets.push(vec![
                 k as f64,
                 sim.time(),
@@ -205,7 +223,7 @@ pub fn run_scene<'py>(
         .map_err(|e| crate::convert::scene_error(py, &scene.inner.locate(&e)))?;
     let pool = pool(threads)?;
     let inner = &scene.inner;
-    let n = sim.grid().len();
+    let n = sim.particle_count();
     let rec = py
         .detach(|| pool.install(|| bake(inner, sim, out.as_deref(), frames)))
         .map_err(PyOSError::new_err)?;

@@ -167,11 +167,12 @@ impl Simulation {
         self.lock().sim.time_step()
     }
 
-    /// Grid size `(columns, rows)`: particle `[i, j]` is index `j * columns + i`.
+    /// Grid size `(columns, rows)`: particle `[i, j]` is index `j * columns + i`. `None` for
+    /// a mesh cloth (`[cloth] mesh`), whose particle `k` is its file's vertex `k`.
     #[getter]
-    fn resolution(&self) -> (usize, usize) {
+    fn resolution(&self) -> Option<(usize, usize)> {
         let g = self.lock();
-        (g.sim.grid().nx, g.sim.grid().nz)
+        g.sim.model().grid.as_ref().map(|grid| (grid.nx, grid.nz))
     }
 
     /// Particle positions, m: a read-only `(n, 3)` float64 copy (it does not follow the
@@ -201,8 +202,7 @@ impl Simulation {
     fn pockets<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let g = self.lock();
         let time = g.sim.time();
-        g.sim
-            .pocket_reports()
+        wetcloth_export::pocket_reports(&g.sim)
             .iter()
             .map(|p| {
                 let d = PyDict::new(py);
@@ -223,17 +223,22 @@ impl Simulation {
     /// there; grabbing a held particle again moves its target.
     fn grab(&self, particle: &Bound<'_, PyAny>, target: [f64; 3]) -> PyResult<()> {
         let mut g = self.lock();
-        let (nx, nz) = (g.sim.grid().nx, g.sim.grid().nz);
+        let n = g.sim.particle_count();
+        let grid = g.sim.model().grid.as_ref().map(|grid| (grid.nx, grid.nz));
         let index = match particle.extract::<usize>() {
-            Ok(k) if k < nx * nz => k,
+            Ok(k) if k < n => k,
             Ok(k) => {
                 return Err(PyIndexError::new_err(format!(
-                    "particle {k} is not on the cloth: it has {} particles (0..{})",
-                    nx * nz,
-                    nx * nz - 1
+                    "particle {k} is not on the cloth: it has {n} particles (0..{})",
+                    n - 1
                 )));
             }
             Err(_) => {
+                let Some((nx, nz)) = grid else {
+                    return Err(PyValueError::new_err(
+                        "a mesh cloth's particle is an index (its file's vertex, from 0)",
+                    ));
+                };
                 let [i, j]: [usize; 2] = particle
                     .extract()
                     .map_err(|_| PyValueError::new_err("particle is an index or [column, row]"))?;
@@ -274,12 +279,17 @@ impl Simulation {
     #[pyo3(signature = (particle = None))]
     fn release(&self, particle: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         let mut g = self.lock();
-        let nx = g.sim.grid().nx;
+        let nx = g.sim.model().grid.as_ref().map(|grid| grid.nx);
         let index = match particle {
             None => None,
             Some(p) => Some(match p.extract::<usize>() {
                 Ok(k) => k,
                 Err(_) => {
+                    let Some(nx) = nx else {
+                        return Err(PyValueError::new_err(
+                            "a mesh cloth's particle is an index (its file's vertex, from 0)",
+                        ));
+                    };
                     let [i, j]: [usize; 2] = p.extract().map_err(|_| {
                         PyValueError::new_err("particle is an index or [column, row]")
                     })?;
@@ -336,7 +346,7 @@ impl Simulation {
         format!(
             "Simulation(t={} s, {} particles{})",
             g.sim.time(),
-            g.sim.grid().len(),
+            g.sim.particle_count(),
             if g.failed.is_some() { ", failed" } else { "" }
         )
     }

@@ -13,7 +13,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{self, Sender};
 use std::thread::JoinHandle;
 
-use wetcloth::{FrameMetrics, Grid, SimConfig, Soa};
+use wetcloth::{ClothSurface, FrameMetrics, SimConfig, Soa};
 use wetcloth_export::{
     MetricsCsv, RunInfo, RunStatus, create_fresh, frame_file_name, is_frame_file_name,
     write_atomically, write_obj,
@@ -52,12 +52,15 @@ impl Recorder {
         let (name, mut config) = (name.to_string(), config.clone());
         // run.json names each mesh by its copy beside it.
         wetcloth_export::write_mesh_copies(dir, &config.colliders)?;
+        if let Some(m) = &config.cloth.mesh {
+            wetcloth_export::write_cloth_copy(dir, m)?;
+        }
         write_run_json(&json, &name, &config, 0, RunStatus::Running, 0.0)?;
         let toml = wetcloth_scene::to_toml(&name, &config);
         write_atomically(&dir.join("scene.toml"), |w| w.write_all(toml.as_bytes()))?;
         let mut csv = MetricsCsv::new(BufWriter::new(create_fresh(&dir.join("metrics.csv"))?))?;
-        let grid = Grid::new(&config.cloth);
-        let uvs = grid.uvs();
+        // The frames' faces and texture coordinates (a mesh cloth's as its file has them).
+        let surface = ClothSurface::new(&config.cloth);
 
         let (tx, rx) = mpsc::channel::<Frame>();
         let thread = std::thread::Builder::new()
@@ -68,9 +71,9 @@ impl Recorder {
                 let written = || -> io::Result<()> {
                     for f in rx {
                         let path = frames_dir.join(frame_file_name(n));
-                        let normals = grid.vertex_normals(&f.positions);
+                        let normals = surface.vertex_normals(&f.positions);
                         write_atomically(&path, |w| {
-                            write_obj(w, &grid, &f.positions, &normals, &uvs)
+                            write_obj(w, &surface, &f.positions, &normals)
                         })?;
                         csv.write_row(n, &f.metrics)?;
                         if n == 0 {

@@ -89,7 +89,7 @@ pub use control::{Control, Grab, GrabKey, GrabMotion, GrabPick, GrabSpec};
 pub use error::{ConfigError, StepError};
 pub use math::{Real, Soa, Vec3};
 pub use metrics::FrameMetrics;
-pub use model::{ClothMesh, ClothMeshError, Grid, Layout, Model};
+pub use model::{ClothMesh, ClothMeshError, ClothSurface, Grid, Layout, Model};
 pub use params::{
     AirModelKind, AirParams, ClothMeshSource, ClothParams, Integrator, PaintShape, PocketSeed,
     PressureForce, PressureSolve, SimConfig, SimulationParams, SolveBudget, WetPaint,

@@ -5,7 +5,9 @@
 //! /<scene>                        Xform; .userProperties: the scene's parameters
 //!     cloth                       Xform (identity)
 //!         clothShape              PolyMesh: P and .selfBnds every frame; .faceIndices,
-//!                                 .faceCounts and uv (vertex scope) once, held for all frames
+//!                                 .faceCounts and uv once, held for all frames (the grid: a
+//!                                 uv per vertex; a mesh cloth: its polygons and, where its
+//!                                 file has them, uv indexed per face corner, seams kept)
 //!     colliders                   Xform (identity), when the run has colliders
 //!         <shape>_<k>             Xform: identity, or a matrix per frame for a moving collider;
 //!                                 .userProperties wetcloth:shape, wetcloth:friction
@@ -16,8 +18,9 @@
 //! One time sampling, uniform at the run's frame rate from time 0: sample `k` is frame `k` at
 //! `k / frame_rate` seconds. Coordinates are the run's: metres, Y up. Alembic lists a face's
 //! vertices clockwise seen from its front (the RenderMan convention its readers undo), so
-//! each triangle `[a, b, c]` of the OBJ frames is written `[c, b, a]`: Blender, Maya and
-//! Houdini show the faces as the OBJ frames do.
+//! each face `[a, b, c, ...]` of the OBJ frames is written reversed, `[..., c, b, a]`, and so
+//! are a face-varying uv's corners: Blender, Maya and Houdini show the faces as the OBJ frames
+//! do.
 //!
 //! The container is in `ogawa.rs`, the sample hash in `murmur.rs`, the archive layout in
 //! `schema.rs`. Memory is the file's offsets (a few per frame) and one reused buffer: the
@@ -43,6 +46,8 @@ const BOX: &str = "interpretation=box";
 const POINTS: &str = "geoScope=vtx;interpretation=point";
 const UV: &str = "arrayExtent=1;geoScope=vtx;interpretation=vector;isGeomParam=true;\
                   podExtent=2;podName=float32_t";
+const UV_FACE_VARYING: &str = "arrayExtent=1;geoScope=fvr;interpretation=vector;isGeomParam=true;\
+                               podExtent=2;podName=float32_t";
 /// Matrix operation, the one op of a moving collider's transform (`kMatrixOperation << 4`).
 const MATRIX_OP: u8 = 0x30;
 /// Positions hashed and written per piece of a frame.
@@ -109,11 +114,24 @@ fn poly_mesh<W: Write + Seek>(
     a.set_values(indices, &mesh.clockwise, 1, i32::to_le_bytes)?;
     a.set_values(counts, &mesh.counts, 1, i32::to_le_bytes)?;
     let mut held = vec![indices, counts];
-    if let Some(uv) = mesh.uvs {
-        let uvs = a.add_array(geom, "uv", UV, Pod::F32, 2, ts);
-        let flat: Vec<f32> = uv.iter().flatten().copied().collect();
-        a.set_values(uvs, &flat, 2, f32::to_le_bytes)?;
-        held.push(uvs);
+    match mesh.uvs {
+        Uvs::None => {}
+        Uvs::Vertex(uv) => {
+            let uvs = a.add_array(geom, "uv", UV, Pod::F32, 2, ts);
+            let flat: Vec<f32> = uv.iter().flatten().copied().collect();
+            a.set_values(uvs, &flat, 2, f32::to_le_bytes)?;
+            held.push(uvs);
+        }
+        Uvs::FaceVarying(uv, corners) => {
+            // An indexed geometry parameter: a compound of the values and each corner's index.
+            let uvs = Parent::Compound(a.add_compound(geom, "uv", UV_FACE_VARYING));
+            let vals = a.add_array(uvs, ".vals", UV_FACE_VARYING, Pod::F32, 2, ts);
+            let flat: Vec<f32> = uv.iter().flatten().copied().collect();
+            a.set_values(vals, &flat, 2, f32::to_le_bytes)?;
+            let indices = a.add_array(uvs, ".indices", "", Pod::U32, 1, ts);
+            a.set_values(indices, &corners, 1, u32::to_le_bytes)?;
+            held.extend([vals, indices]);
+        }
     }
     Ok((points, bounds, held))
 }
@@ -125,8 +143,19 @@ struct MeshData<'a> {
     clockwise: Vec<i32>,
     /// Vertices per face.
     counts: Vec<i32>,
-    uvs: Option<&'a [[f32; 2]]>,
+    uvs: Uvs<'a>,
     points: Option<&'a [[f32; 3]]>,
+}
+
+/// A mesh's texture coordinates.
+enum Uvs<'a> {
+    /// None.
+    None,
+    /// One per vertex (`geoScope=vtx`).
+    Vertex(&'a [[f32; 2]]),
+    /// The values and each corner's index into them, corner by corner in the order of
+    /// `.faceIndices` (`geoScope=fvr`, indexed).
+    FaceVarying(&'a [[f32; 2]], Vec<u32>),
 }
 
 /// Faces as Alembic stores them: the vertices of every face, clockwise, and their counts.
@@ -296,8 +325,11 @@ impl<W: Write + Seek> AbcWriter<W> {
             "_ai_Application=wetcloth {};_ai_Description={}",
             env!("CARGO_PKG_VERSION"),
             meta_value(&format!(
-                "run {}: {} x {} particles, {} frames at {} frames per second, metres, Y up",
-                run.name, run.resolution[0], run.resolution[1], spec.frames, run.frame_rate
+                "run {}: {}, {} frames at {} frames per second, metres, Y up",
+                run.name,
+                run.cloth_words(),
+                spec.frames,
+                run.frame_rate
             ))
         );
         let mut a = Archive::new(w, meta)?;
@@ -306,11 +338,24 @@ impl<W: Write + Seek> AbcWriter<W> {
         let (scene, scene_schema, _) = xform(&mut a, top, &identifier(&run.name), ts)?;
         user_properties(&mut a, scene_schema, spec.params)?;
         let (cloth, _, _) = xform(&mut a, scene, "cloth", ts)?;
-        let (clockwise, counts) = clockwise(spec.triangles.iter().map(|t| &t[..]));
+        let surface = spec.surface;
+        let (clockwise, counts) = clockwise(surface.faces());
+        let uv = spec.uvs_f32();
+        let uvs = match (&surface.face_uvs, surface.grid) {
+            // Each face's corners reversed, as its vertices are.
+            (Some(_), _) => Uvs::FaceVarying(
+                &uv,
+                (0..surface.face_count())
+                    .flat_map(|f| surface.face_uv(f).unwrap_or(&[]).iter().rev().copied())
+                    .collect(),
+            ),
+            (None, Some(_)) => Uvs::Vertex(&uv),
+            (None, None) => Uvs::None,
+        };
         let mesh = MeshData {
             clockwise,
             counts,
-            uvs: Some(spec.uvs),
+            uvs,
             points: None,
         };
         // The cloth's topology and UVs are set once and held for every frame; a still
@@ -320,7 +365,7 @@ impl<W: Write + Seek> AbcWriter<W> {
         let mut moving = Vec::new();
         if !run.colliders.is_empty() {
             let (group, _, _) = xform(&mut a, scene, "colliders", ts)?;
-            let size = run.size[0].max(run.size[1]);
+            let size = run.cloth_span();
             for (k, c) in run.colliders.iter().enumerate() {
                 let name = format!("{}_{k}", c.shape_name());
                 let (obj, schema, inherits) = xform(&mut a, group, &name, ts)?;
@@ -358,7 +403,7 @@ impl<W: Write + Seek> AbcWriter<W> {
                 let mesh = MeshData {
                     clockwise,
                     counts,
-                    uvs: None,
+                    uvs: Uvs::None,
                     points: Some(&p),
                 };
                 poly_mesh(&mut a, obj, &format!("{name}Shape"), ts, mesh)?;

@@ -7,7 +7,7 @@
 //! #usda 1.0  (upAxis = "Y", metersPerUnit = 1, timeCodesPerSecond = framesPerSecond = the run's
 //!             frame rate, startTimeCode = 0, endTimeCode = frames - 1, defaultPrim = <scene>)
 //! def Xform "<scene>"            the scene's parameters as custom attributes wetcloth:table:key
-//!     def Mesh "cloth"           triangles, primvars:st (vertex UVs), and per frame: points,
+//!     def Mesh "cloth"           faces, primvars:st (UVs), and per frame: points,
 //!                                normals (vertex), extent; time code k = frame k
 //!     def Scope "colliders"
 //!         def Mesh "plane_0"     a large quad (PLANE_HALF_SIDE), custom wetcloth:* attributes
@@ -115,6 +115,12 @@ impl Attr {
         self
     }
 
+    /// A primvar with a value per face corner (`faceVarying`).
+    fn face_varying(mut self) -> Self {
+        self.interpolation = Some("faceVarying");
+        self
+    }
+
     fn streamed(name: &str, type_name: &'static str, stream: Stream) -> Self {
         Self {
             data: Data::Streamed(stream),
@@ -189,7 +195,7 @@ pub(crate) fn build_stage(spec: &CacheSpec<'_>) -> Stage {
     let mut root = Prim::new(&identifier(&run.name), "Xform");
     root.attrs = spec.params.iter().map(param_attr).collect();
     root.children.push(cloth_prim(spec));
-    let size = run.size[0].max(run.size[1]);
+    let size = run.cloth_span();
     let mut colliders = Prim::new("colliders", "Scope");
     for (k, c) in run.colliders.iter().enumerate() {
         colliders
@@ -200,9 +206,12 @@ pub(crate) fn build_stage(spec: &CacheSpec<'_>) -> Stage {
         root.children.push(colliders);
     }
     let mut doc = format!(
-        "wetcloth run `{}`: {} x {} particles, {} frames at {} frames per second; metres, Y up; \
-         time code k is frame k",
-        run.name, run.resolution[0], run.resolution[1], spec.frames, run.frame_rate
+        "wetcloth run `{}`: {}, {} frames at {} frames per second; metres, Y up; time code k \
+         is frame k",
+        run.name,
+        run.cloth_words(),
+        spec.frames,
+        run.frame_rate
     );
     if let Some(why) = crate::incomplete(run) {
         doc.push_str(&format!("; INCOMPLETE: {why}"));
@@ -216,26 +225,45 @@ pub(crate) fn build_stage(spec: &CacheSpec<'_>) -> Stage {
     }
 }
 
-/// The cloth: a triangle mesh whose points, normals and extent are sampled every frame.
+/// The cloth: its faces as the frames have them (the grid's triangles, or a mesh cloth's
+/// polygons in the file's order and winding), whose points, normals and extent are sampled
+/// every frame. Texture coordinates are `primvars:st`: per vertex on the grid, face-varying
+/// with `primvars:st:indices` (the file's `vt` indices, seams kept) on a mesh cloth whose
+/// file has them.
 fn cloth_prim(spec: &CacheSpec<'_>) -> Prim {
+    let s = spec.surface;
     let mut p = Prim::new("cloth", "Mesh");
-    let counts = vec![3; spec.triangles.len()];
-    let indices = spec.triangles.iter().flatten().map(|&i| i as i32).collect();
+    let counts = s.faces().map(|f| f.len() as i32).collect();
+    let indices = s.face_vertices.iter().map(|&i| i as i32).collect();
     p.attrs = vec![
         Attr::new("doubleSided", "bool", Value::Bool(true)).uniform(),
         Attr::new("faceVertexCounts", "int[]", Value::Ints(counts)),
         Attr::new("faceVertexIndices", "int[]", Value::Ints(indices)),
-        Attr::new(
-            "primvars:st",
-            "texCoord2f[]",
-            Value::Float2s(spec.uvs.to_vec()),
-        )
-        .vertex(),
+    ];
+    let st = Attr::new(
+        "primvars:st",
+        "texCoord2f[]",
+        Value::Float2s(spec.uvs_f32()),
+    );
+    match (&s.face_uvs, s.grid) {
+        (Some(corners), _) => {
+            p.attrs.push(st.face_varying());
+            let corners = corners.iter().map(|&i| i as i32).collect();
+            p.attrs.push(Attr::new(
+                "primvars:st:indices",
+                "int[]",
+                Value::Ints(corners),
+            ));
+        }
+        (None, Some(_)) => p.attrs.push(st.vertex()),
+        (None, None) => {}
+    }
+    p.attrs.extend([
         Attr::new("subdivisionScheme", "token", Value::Token("none".into())).uniform(),
         Attr::streamed("points", "point3f[]", Stream::Points),
         Attr::streamed("normals", "normal3f[]", Stream::Normals).vertex(),
         Attr::streamed("extent", "float3[]", Stream::Extent),
-    ];
+    ]);
     p
 }
 

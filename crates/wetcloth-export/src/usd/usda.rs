@@ -365,8 +365,7 @@ mod tests {
         let spec = CacheSpec {
             run: &run,
             frames: 2,
-            triangles: &[[0, 3, 1], [0, 2, 3]],
-            uvs: &[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]],
+            surface: &wetcloth::ClothSurface::new(&cfg.cloth),
             params: &params,
         };
         let mut w = UsdaWriter::new(Vec::new(), &spec, |_| Ok(Cursor::new(Vec::new()))).unwrap();

@@ -627,8 +627,7 @@ mod tests {
         let spec = CacheSpec {
             run: &run,
             frames: 2,
-            triangles: &[[0, 3, 1], [0, 2, 3]],
-            uvs: &[[0.0; 2]; 4],
+            surface: &wetcloth::ClothSurface::new(&cfg.cloth),
             params: &[],
         };
         let mut w = UsdcWriter::new(Cursor::new(Vec::new()), &spec).unwrap();

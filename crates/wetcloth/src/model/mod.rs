@@ -5,9 +5,11 @@
 
 mod cloth_mesh;
 mod grid;
+mod surface;
 
 pub use cloth_mesh::{ClothMesh, ClothMeshError, MAX_MESH_PARTICLES};
 pub use grid::{Grid, Neighbour, STENCIL};
+pub use surface::ClothSurface;
 
 use crate::forces::mesh_spring::MeshSprings;
 use std::sync::Arc;
