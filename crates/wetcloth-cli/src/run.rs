@@ -538,7 +538,7 @@ fn bake(
             csv.write_row(k, &metrics)
                 .map_err(CliError::output(&csv_path))?;
             pockets_csv
-                .write_frame(k, sim.time(), &wetcloth_export::pocket_reports(sim))
+                .write_frame(k, sim.time(), &sim.pocket_reports())
                 .map_err(CliError::output(&pockets_path))?;
             grabs_csv
                 .write_frame(k, sim.time(), &sim.grab_forces())

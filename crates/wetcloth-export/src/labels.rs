@@ -63,24 +63,6 @@ pub fn particle_pocket_ids(sim: &Simulation) -> Option<Vec<u32>> {
     )
 }
 
-/// The rows of `pockets.csv` for the current state of `sim`: [`Simulation::pocket_reports`],
-/// with the thesis' single bubble over a mesh cloth built here from the bubble's own
-/// measurements (its particles are the cloth's, its area the cloth's rest area), the same
-/// numbers the core reports for the grid.
-pub fn pocket_reports(sim: &Simulation) -> Vec<wetcloth::air::PocketReport> {
-    if sim.model().grid.is_some() || sim.air().pockets().is_some() {
-        return sim.pocket_reports();
-    }
-    vec![wetcloth::air::PocketReport {
-        id: 0,
-        volume: sim.air_volume(),
-        amount: sim.trapped_air(),
-        pressure: sim.air_pressure(),
-        area: sim.model().cloth_area,
-        particles: sim.particle_count() as u32,
-    }]
-}
-
 /// Writes `labels` (one per particle: a pocket id or [`NO_POCKET`]) in the format above.
 pub fn write_pocket_labels(mut w: impl Write, labels: &[u32]) -> io::Result<()> {
     writeln!(w, "{POCKET_LABELS_MAGIC}")?;
@@ -233,37 +215,6 @@ pub fn parse_pocket_labels(text: &str) -> Result<Vec<u32>, LabelsError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_bubbles_report_is_the_cores_on_the_grid() {
-        let mut c = wetcloth::SimConfig::thesis_demo();
-        c.cloth.resolution = [9, 9];
-        c.grabs[0].particle = [4, 4];
-        let mut sim = Simulation::new(c).unwrap();
-        sim.advance(50).unwrap();
-        let core = sim.pocket_reports();
-        let r = &core[0];
-        let here = wetcloth::air::PocketReport {
-            id: 0,
-            volume: sim.air_volume(),
-            amount: sim.trapped_air(),
-            pressure: sim.air_pressure(),
-            area: sim.model().cloth_area,
-            particles: sim.particle_count() as u32,
-        };
-        assert_eq!(
-            (r.id, r.volume, r.amount, r.pressure, r.area, r.particles),
-            (
-                here.id,
-                here.volume,
-                here.amount,
-                here.pressure,
-                here.area,
-                here.particles
-            )
-        );
-        assert_eq!(pocket_reports(&sim).len(), 1);
-    }
 
     #[test]
     fn labels_round_trip_run_length_encoded() {

@@ -51,7 +51,7 @@ pub use export::{
 };
 pub use labels::{
     LabelsError, NO_POCKET, POCKET_LABELS_MAGIC, is_pocket_labels_file_name, parse_pocket_labels,
-    particle_pocket_ids, pocket_labels_file_name, pocket_reports, write_pocket_labels,
+    particle_pocket_ids, pocket_labels_file_name, write_pocket_labels,
 };
 pub use mesh_copy::{
     cloth_copy, read_cloth_copy, read_colliders, read_run_json, write_cloth_copy, write_mesh_copies,

@@ -97,7 +97,7 @@ impl Folder {
             .map_err(io_at(&m))?;
         let p = self.dir.join("pockets.csv");
         self.pockets
-            .write_frame(k, sim.time(), &wetcloth_export::pocket_reports(sim))
+            .write_frame(k, sim.time(), &sim.pocket_reports())
             .map_err(io_at(&p))?;
         let g = self.dir.join("grabs.csv");
         self.grabs
@@ -169,7 +169,7 @@ fn bake(
         let m = sim.metrics();
         rec.metrics
             .push(std::iter::once(k as f64).chain(m.values()).collect());
-        for p in wetcloth_export::pocket_reports(&sim) {
+        for p in sim.pocket_reports() {
             rec.pockets.push(vec![
                 k as f64,
                 sim.time(),

@@ -202,7 +202,8 @@ impl Simulation {
     fn pockets<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         let g = self.lock();
         let time = g.sim.time();
-        wetcloth_export::pocket_reports(&g.sim)
+        g.sim
+            .pocket_reports()
             .iter()
             .map(|p| {
                 let d = PyDict::new(py);

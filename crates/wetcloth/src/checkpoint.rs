@@ -38,7 +38,7 @@ use crate::params::SimConfig;
 use crate::state::{Motion, State};
 
 /// Version of a checkpoint's contents; raised whenever a stored type changes.
-pub const CHECKPOINT_VERSION: u32 = 4;
+pub const CHECKPOINT_VERSION: u32 = 5;
 
 /// Everything a step carries to the next (see the module docs).
 #[derive(Clone, Debug)]

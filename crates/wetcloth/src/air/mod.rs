@@ -155,7 +155,7 @@ impl AirModel {
                 amount: b.trapped_air,
                 pressure: b.pressure(air, model, enabled),
                 area: model.cloth_area,
-                particles: model.grid().len() as u32,
+                particles: model.len() as u32,
             }],
             AirModel::Pockets(p) => p
                 .pockets

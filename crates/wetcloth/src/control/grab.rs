@@ -28,10 +28,6 @@ pub struct GrabSpec {
     pub particle: [usize; 2],
     /// Which particles it holds, when not `particle`: a vertex, the particle nearest a point,
     /// or every particle inside a ball or a box (at t = 0). `None`: `particle`.
-    #[cfg_attr(
-        feature = "serde",
-        serde(default, skip_serializing_if = "Option::is_none")
-    )]
     pub pick: Option<GrabPick>,
     /// Path keys, linear in between; the particle is free before the first key and held at the
     /// last key's position after it.
