@@ -44,13 +44,13 @@ fn both_index_spellings_reach_the_same_item() {
     );
     scene.set("cloth.size.1", Value::Float(0.25)).unwrap();
     assert_eq!(scene.config.cloth.size, [0.3, 0.25]);
-    // A second grab, appended one past the end; a grab needs its particle first.
+    // A second grab, appended one past the end; a grab needs its particles first.
     let keys =
         "[{ time = 0.0, offset = [0.0, 0.0, 0.0] }, { time = 0.1, offset = [0.0, 0.01, 0.0] }]";
     let err = scene.set("grab.1.keys", parse_value(keys)).unwrap_err();
     assert!(
         err.to_string()
-            .starts_with("set grab[1].keys: `grab[1].particle` is missing"),
+            .starts_with("set grab[1].keys: grab[1] = [[grab]]: a grab takes exactly one of"),
         "{err}"
     );
     scene
