@@ -337,3 +337,22 @@ fn a_mesh_run_without_run_json_is_checked_against_its_header() {
         assert!(msg.contains(part), "missing {part:?} in: {msg}");
     }
 }
+
+/// `plot` reads only `metrics.csv` (and the name from run.json): a mesh run's plots the same.
+#[test]
+fn a_mesh_run_plots_its_metrics() {
+    let dir = fresh_dir("mesh-plot");
+    write_mesh_run(&dir, 2);
+    let header = wetcloth_export::csv_header();
+    let columns = header.split(',').count();
+    let mut csv = header + "\n";
+    for frame in 0..3 {
+        let mut row = vec![frame.to_string(), format!("{}", frame as f64 / 24.0)];
+        row.extend((2..columns).map(|c| format!("{}", 0.1 * (c + frame) as f64)));
+        csv += &(row.join(",") + "\n");
+    }
+    std::fs::write(dir.join("metrics.csv"), csv).unwrap();
+    let png = wetcloth_render::plot_run(&dir).unwrap();
+    assert_eq!(png, dir.join("metrics.png"));
+    assert!(image::open(&png).unwrap().width() > 100);
+}
