@@ -31,10 +31,10 @@ pub use offscreen::{OFFSCREEN_DEPTH, OFFSCREEN_FORMAT, OFFSCREEN_SAMPLES, Offscr
 pub use plot::plot_run;
 pub use renderer::{ClothRenderer, KEY_LIGHT_DIR, Material, MeshView, SceneView, srgb_to_linear};
 pub use run::{
-    CameraSpec, FrameSelection, ImageSize, ObjMesh, PocketPressures, RenderOptions, RenderSummary,
-    RunCheck, RunInfo, VideoOutcome, check_run, draw_legend, ffmpeg_available, list_frames,
-    parse_pressure_range, parse_wetness, pressure_colour, read_obj, read_run_info, render_run,
-    render_run_with_progress,
+    CameraSpec, FrameSelection, ImageSize, MeshInfo, ObjMesh, PocketPressures, RenderOptions,
+    RenderSummary, RunCheck, RunInfo, VideoOutcome, check_run, draw_legend, ffmpeg_available,
+    list_frames, parse_pressure_range, parse_wetness, pressure_colour, read_obj, read_run_info,
+    render_run, render_run_with_progress,
 };
 pub use wgpu;
 

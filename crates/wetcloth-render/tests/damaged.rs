@@ -347,3 +347,170 @@ fn wetness_out_of_range_is_refused_by_the_library_too() {
     .to_string();
     assert_has(&msg, &["wetness = NaN", "0 (dry) to 1 (wet)"]);
 }
+
+/// A frame of a cloth of any shape as `wetcloth run` writes it: the header, the vertices of a
+/// 3 x 3 patch, and its four cells as quads, but the last cell as two triangles (`f v/vt/vn`).
+fn mesh_frame_text(lift: f32) -> String {
+    let mut s = String::from("# wetcloth cloth mesh: 9 particles, 5 faces\no cloth\n");
+    for j in 0..3 {
+        for i in 0..3 {
+            let y = if (i, j) == (1, 1) {
+                0.002 + lift
+            } else {
+                0.002
+            };
+            writeln!(s, "v {} {y} {}", 0.1 * i as f32, 0.1 * j as f32).unwrap();
+        }
+    }
+    for _ in 0..9 {
+        s += "vt 0.5 0.5\nvn 0 1 0\n";
+    }
+    s += "f 1/1/1 4/4/4 5/5/5 2/2/2\nf 2/2/2 5/5/5 6/6/6 3/3/3\nf 4/4/4 7/7/7 8/8/8 5/5/5\n\
+          f 5/5/5 8/8/8 9/9/9\nf 5/5/5 9/9/9 6/6/6\n";
+    s
+}
+
+/// A sound three-frame run of a cloth of any shape: run.json's `mesh` and no resolution.
+fn good_mesh_run(name: &str) -> PathBuf {
+    let dir = fresh_dir(name);
+    for f in 0..3 {
+        std::fs::write(frame(&dir, f), mesh_frame_text(0.01 * f as f32)).unwrap();
+    }
+    std::fs::write(dir.join("run.json"), mesh_run_json(|_| {})).unwrap();
+    dir
+}
+
+fn mesh_run_json(edit: impl FnOnce(&mut serde_json::Value)) -> String {
+    run_json(3, |v| {
+        let o = v.as_object_mut().unwrap();
+        o.remove("resolution");
+        o.remove("size");
+        o.insert("grabs".into(), serde_json::json!([]));
+        o.insert(
+            "mesh".into(),
+            serde_json::json!({"file": "/scenes/patch.obj", "vertices": 9, "faces": 5}),
+        );
+        edit(v);
+    })
+}
+
+#[test]
+fn the_sound_mesh_run_reads() {
+    let dir = good_mesh_run("mesh-sound");
+    let info = read_run_info(&dir).unwrap().unwrap();
+    let mesh = info.mesh.clone().unwrap();
+    assert_eq!(
+        (mesh.file.as_str(), mesh.vertices, mesh.faces),
+        ("/scenes/patch.obj", 9, 5)
+    );
+    assert_eq!(info.resolution, [0, 0]);
+    let obj = read_obj(&frame(&dir, 1)).unwrap();
+    assert_eq!(
+        (obj.positions.len(), obj.faces, obj.indices.len()),
+        (9, 5, 3 * 8)
+    );
+    assert_eq!(
+        (obj.header_mesh, obj.header_resolution),
+        (Some([9, 5]), None)
+    );
+    let check = wetcloth_render::check_run(&dir).unwrap();
+    assert_eq!((check.vertices, check.faces, check.triangles), (9, 5, 8));
+}
+
+#[test]
+fn a_mesh_frame_with_a_wrong_count_is_refused() {
+    // A face lost at a line end: counted against run.json's mesh, then the header.
+    let dir = good_mesh_run("mesh-faces");
+    let text = mesh_frame_text(0.0);
+    let cut = text[..text.len() - 1].rfind('\n').unwrap() + 1;
+    std::fs::write(frame(&dir, 1), &text[..cut]).unwrap();
+    assert_has(
+        &refused(&dir),
+        &[
+            "frame_0001.obj",
+            "4 faces where the mesh cloth patch.obj (run.json's mesh) has 5",
+        ],
+    );
+    std::fs::remove_file(dir.join("run.json")).unwrap();
+    assert_has(
+        &refused(&dir),
+        &["frame_0001.obj", "4 faces where", "the header of"],
+    );
+    // A vertex too many.
+    let dir = good_mesh_run("mesh-vertices");
+    let text = mesh_frame_text(0.0).replacen("\nv ", "\nv 0 0 0\nv ", 1);
+    std::fs::write(frame(&dir, 2), text).unwrap();
+    assert_has(
+        &refused(&dir),
+        &[
+            "frame_0002.obj",
+            "10 vertices where the mesh cloth",
+            "has 9",
+        ],
+    );
+    // The same counts, other faces.
+    let dir = good_mesh_run("mesh-other");
+    let text = mesh_frame_text(0.0).replace("f 5/5/5 9/9/9 6/6/6", "f 5/5/5 9/9/9 3/3/3");
+    std::fs::write(frame(&dir, 2), text).unwrap();
+    assert_has(
+        &refused(&dir),
+        &["frame_0002.obj", "faces differ from those of"],
+    );
+}
+
+#[test]
+fn nonsense_mesh_values_in_run_json_are_refused_naming_the_key() {
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(Edit, &[&str]); 6] = [
+        (
+            |v| {
+                v["mesh"].as_object_mut().unwrap().remove("vertices");
+            },
+            &["mesh.vertices is missing"],
+        ),
+        (
+            |v| {
+                v["mesh"].as_object_mut().unwrap().remove("faces");
+            },
+            &["mesh.faces is missing"],
+        ),
+        (
+            |v| v["mesh"]["vertices"] = serde_json::json!(2),
+            &["mesh.vertices = 2", "[3, 4194304]"],
+        ),
+        (
+            |v| v["mesh"]["faces"] = serde_json::json!(0),
+            &["mesh.faces = 0"],
+        ),
+        (
+            |v| v["mesh"]["faces"] = serde_json::json!(-3),
+            &["run.json:", "invalid value"],
+        ),
+        (
+            |v| v["mesh"] = serde_json::json!([9, 5]),
+            &["run.json:", "invalid type"],
+        ),
+    ];
+    for (k, (edit, parts)) in cases.into_iter().enumerate() {
+        let dir = good_mesh_run(&format!("mesh-json-{k}"));
+        std::fs::write(dir.join("run.json"), mesh_run_json(edit)).unwrap();
+        let msg = refused(&dir);
+        assert!(msg.contains("run.json"), "{msg}");
+        assert_has(&msg, parts);
+    }
+    // The counts of another mesh: the frames are refused.
+    let dir = good_mesh_run("mesh-json-other");
+    std::fs::write(
+        dir.join("run.json"),
+        mesh_run_json(|v| v["mesh"]["vertices"] = serde_json::json!(609)),
+    )
+    .unwrap();
+    assert_has(
+        &refused(&dir),
+        &[
+            "frame_0000.obj",
+            "9 vertices where the mesh cloth patch.obj",
+            "has 609",
+        ],
+    );
+}

@@ -1,4 +1,5 @@
-//! Fuzzing what `render` and `plot` read: sound run folders damaged at random (files cut short,
+//! Fuzzing what `render` and `plot` read: sound run folders (of the grid, or of a cloth of any
+//! shape with polygon faces) damaged at random (files cut short,
 //! numbers replaced by NaN, infinities or junk, lines deleted or doubled, bytes inserted,
 //! frames removed or doubled, `run.json` values replaced by any JSON), and `metrics.csv` files
 //! with extreme and non-finite values. Properties: no panic, no hang; a folder that
@@ -108,22 +109,47 @@ const JUNK: &[&str] = &[
     "-2147483648",
 ];
 
-/// A sound run folder: `frames` frames of an `n` x `n` cloth and run.json.
-fn write_run(dir: &Path, n: usize, frames: usize) {
+/// A sound run folder: `frames` frames of an `n` x `n` cloth and run.json; with `mesh`, a
+/// mesh run of the same vertices (a cloth of any shape: run.json's `mesh`, no resolution) whose
+/// faces are the cells as quads, every third cell as two triangles.
+fn write_run(dir: &Path, n: usize, frames: usize, mesh: bool) {
     let _ = std::fs::remove_dir_all(dir);
     std::fs::create_dir_all(dir.join("frames")).unwrap();
+    let mut faces: Vec<Vec<u32>> = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let a = (j * n + i) as u32 + 1;
+            let (b, c, d) = (a + 1, a + 1 + n as u32, a + n as u32);
+            if mesh && (i + j) % 3 != 0 {
+                faces.push(vec![a, d, c, b]);
+            } else {
+                faces.extend([vec![a, c, b], vec![a, d, c]]);
+            }
+        }
+    }
     for f in 0..frames {
-        let (p, idx) = tented_grid(n, 0.3, 0.002, 0.02 * f as f32);
-        let mut s = format!("# wetcloth cloth mesh: {n} x {n} particles\no cloth\n");
+        let (p, _) = tented_grid(n, 0.3, 0.002, 0.02 * f as f32);
+        let mut s = if mesh {
+            format!(
+                "# wetcloth cloth mesh: {} particles, {} faces\no cloth\n",
+                p.len(),
+                faces.len()
+            )
+        } else {
+            format!("# wetcloth cloth mesh: {n} x {n} particles\no cloth\n")
+        };
         for v in &p {
             writeln!(s, "v {:?} {:?} {:?}", v[0], v[1], v[2]).unwrap();
         }
         for _ in &p {
             s += "vt 0.5 0.5\nvn 0.0 1.0 0.0\n";
         }
-        for t in idx.chunks(3) {
-            let [a, b, c] = [t[0] + 1, t[1] + 1, t[2] + 1];
-            writeln!(s, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}").unwrap();
+        for face in &faces {
+            s += "f";
+            for k in face {
+                write!(s, " {k}/{k}/{k}").unwrap();
+            }
+            s += "\n";
         }
         std::fs::write(dir.join(format!("frames/frame_{f:04}.obj")), s).unwrap();
     }
@@ -138,6 +164,16 @@ fn write_run(dir: &Path, n: usize, frames: usize) {
         ],
         "grabs": [[0, 0]]
     });
+    let mut json = json;
+    if mesh {
+        let o = json.as_object_mut().unwrap();
+        o.remove("resolution");
+        o.remove("size");
+        o.insert(
+            "mesh".into(),
+            serde_json::json!({"file": "fuzz.obj", "vertices": n * n, "faces": faces.len()}),
+        );
+    }
     std::fs::write(
         dir.join("run.json"),
         serde_json::to_string_pretty(&json).unwrap(),
@@ -199,6 +235,9 @@ const JSON_KEYS: &[&str] = &[
     "grabs",
     "complete",
     "time",
+    "mesh",
+    "mesh.vertices",
+    "mesh.faces",
 ];
 
 fn damage() -> impl Strategy<Value = Damage> {
@@ -291,13 +330,18 @@ fn apply(dir: &Path, d: &Damage) {
             else {
                 return;
             };
-            if let Some(o) = json.as_object_mut() {
+            // `a.b` is key `b` of the object at key `a`.
+            let (outer, key) = match k.split_once('.') {
+                Some((a, b)) => (json.get_mut(a), b),
+                None => (Some(&mut json), *k),
+            };
+            if let Some(o) = outer.and_then(|o| o.as_object_mut()) {
                 match d {
                     Damage::JsonSet(_, v) => {
-                        o.insert(k.to_string(), v.clone());
+                        o.insert(key.to_string(), v.clone());
                     }
                     _ => {
-                        o.remove(*k);
+                        o.remove(key);
                     }
                 }
             }
@@ -355,6 +399,9 @@ fn check_folder(dir: &Path) -> Result<(), TestCaseError> {
         {
             prop_assert_eq!((found.vertices, found.triangles), (v, t));
         }
+        if let Some(m) = found.info.as_ref().and_then(|i| i.mesh.as_ref()) {
+            prop_assert_eq!((found.vertices, found.faces), (m.vertices, m.faces));
+        }
     } else if let Err(e) = result {
         let msg = e.to_string();
         prop_assert!(!msg.is_empty());
@@ -366,9 +413,14 @@ fn folder_campaign(n: u32) {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fuzz-render-run");
     runner(n)
         .run(
-            &(2usize..7, 1usize..4, prop::collection::vec(damage(), 0..4)),
-            |(side, frames, damage)| {
-                write_run(&dir, side, frames);
+            &(
+                2usize..7,
+                1usize..4,
+                any::<bool>(),
+                prop::collection::vec(damage(), 0..4),
+            ),
+            |(side, frames, mesh, damage)| {
+                write_run(&dir, side, frames, mesh);
                 for d in &damage {
                     apply(&dir, d);
                 }

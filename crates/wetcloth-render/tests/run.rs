@@ -194,3 +194,165 @@ fn missing_and_malformed_inputs_are_reported_with_their_file() {
     .unwrap_err();
     assert!(matches!(e, RenderError::NoFramesSelected { .. }), "{e}");
 }
+
+/// A cloth of any shape: five vertices, a quad and a triangle beside it (front side up), 2 mm
+/// above the table; the triangle's far corner rises with `lift` (m).
+fn mesh_frame(lift: f32) -> ([[f32; 3]; 5], String) {
+    let y = 0.002;
+    let p = [
+        [-0.1, y, -0.1],
+        [-0.1, y, 0.1],
+        [0.1, y, 0.1],
+        [0.1, y, -0.1],
+        [0.3, y + lift, 0.0],
+    ];
+    let mut s = String::from("# wetcloth cloth mesh: 5 particles, 2 faces\no cloth\n");
+    for v in &p {
+        writeln!(s, "v {} {} {}", v[0], v[1], v[2]).unwrap();
+    }
+    for uv in ["0 0", "0 1", "1 1", "1 0", "1.5 0.5"] {
+        writeln!(s, "vt {uv}").unwrap();
+    }
+    for _ in &p {
+        writeln!(s, "vn 0 1 0").unwrap();
+    }
+    s += "f 1/1/1 2/2/2 3/3/3 4/4/4\nf 4/4/4 3/3/3 5/5/5\n";
+    (p, s)
+}
+
+/// A mesh run as `wetcloth run` writes it for a cloth of any shape: run.json's `mesh` gives the
+/// vertex and face counts (a stale `resolution` and `grabs` beside it mean nothing), the frames
+/// keep the file's polygons.
+fn write_mesh_run(dir: &Path, frames: usize) {
+    std::fs::create_dir_all(dir.join("frames")).unwrap();
+    for f in 0..frames {
+        let (_, text) = mesh_frame(0.05 * f as f32);
+        std::fs::write(dir.join(format!("frames/frame_{f:04}.obj")), text).unwrap();
+    }
+    let json = serde_json::json!({
+        "name": "test-mesh",
+        "resolution": [40, 40],
+        "mesh": {"file": "/somewhere/patch.obj", "copy": "meshes/cloth-0.obj", "vertices": 5,
+                 "faces": 2, "texture_coordinates": 5},
+        "particle_radius": 0.002,
+        "time_step": 0.0001,
+        "frame_rate": 24.0,
+        "duration": 1.0,
+        "frames": frames,
+        "complete": true,
+        "status": "complete",
+        "colliders": [
+            {"shape": "plane", "point": [0.0, 0.0, 0.0], "normal": [0.0, 1.0, 0.0], "friction": 0.6}
+        ],
+        "grabs": [[39, 39]]
+    });
+    std::fs::write(
+        dir.join("run.json"),
+        serde_json::to_string_pretty(&json).unwrap(),
+    )
+    .unwrap();
+}
+
+#[test]
+fn a_mesh_run_renders_its_polygons() {
+    let dir = fresh_dir("mesh");
+    write_mesh_run(&dir, 2);
+    let check = wetcloth_render::check_run(&dir).unwrap();
+    assert_eq!(
+        (check.frames, check.vertices, check.faces, check.triangles),
+        (2, 5, 2, 3)
+    );
+    let info = check.info.unwrap();
+    assert_eq!(
+        info.mesh.as_ref().map(|m| (m.vertices, m.faces)),
+        Some((5, 2))
+    );
+    assert_eq!(
+        info.resolution,
+        [0, 0],
+        "a mesh run's resolution means nothing"
+    );
+    assert!(info.grabs.is_empty());
+    let summary = render_run(RenderOptions {
+        video: false,
+        particles: true,
+        show_grabs: true,
+        ..opts(&dir)
+    })
+    .expect("render_run failed (a graphics adapter is needed: mesa-vulkan-drivers)");
+    assert_eq!(summary.images.len(), 2);
+    for (k, png) in summary.images.iter().enumerate() {
+        let img = image::open(png).unwrap().to_rgba8();
+        let (p, _) = mesh_frame(0.05 * k as f32);
+        // The quad's middle and the triangle's are the satin's rose.
+        let centroid = |v: &[usize]| {
+            let mut c = [0.0f32; 3];
+            for &i in v {
+                for a in 0..3 {
+                    c[a] += p[i][a] / v.len() as f32;
+                }
+            }
+            c
+        };
+        for (what, at) in [
+            ("quad", centroid(&[0, 1, 2, 3])),
+            ("triangle", centroid(&[3, 2, 4])),
+        ] {
+            let q = summary.camera.project(at, [160, 120]).unwrap();
+            let c = img.get_pixel(q[0] as u32, q[1] as u32).0;
+            assert!(
+                c[0] as i32 > c[1] as i32 + 12,
+                "frame {k}: the {what} drawn as {c:?}"
+            );
+        }
+        // Beside the quad is table.
+        let q = summary
+            .camera
+            .project([-0.16, 0.0, 0.0], [160, 120])
+            .unwrap();
+        let c = img.get_pixel(q[0] as u32, q[1] as u32).0;
+        assert!(
+            (c[0] as i32 - c[2] as i32).abs() < 12,
+            "frame {k}: table drawn as {c:?}"
+        );
+    }
+}
+
+#[test]
+fn a_mesh_run_without_run_json_is_checked_against_its_header() {
+    let dir = fresh_dir("mesh-header");
+    write_mesh_run(&dir, 2);
+    std::fs::remove_file(dir.join("run.json")).unwrap();
+    let check = wetcloth_render::check_run(&dir).unwrap();
+    assert_eq!((check.vertices, check.faces), (5, 2));
+    // A frame with a face too many for its header is refused, naming the file.
+    let (_, text) = mesh_frame(0.0);
+    std::fs::write(
+        dir.join("frames/frame_0001.obj"),
+        text + "f 1/1/1 2/2/2 3/3/3\n",
+    )
+    .unwrap();
+    let msg = wetcloth_render::check_run(&dir).unwrap_err().to_string();
+    for part in ["frame_0001.obj", "3 faces", "has 2", "the header of"] {
+        assert!(msg.contains(part), "missing {part:?} in: {msg}");
+    }
+}
+
+/// `plot` reads only `metrics.csv` (and the name from run.json): a mesh run's plots the same.
+#[test]
+fn a_mesh_run_plots_its_metrics() {
+    let dir = fresh_dir("mesh-plot");
+    write_mesh_run(&dir, 2);
+    let header = wetcloth_export::csv_header();
+    let columns = header.split(',').count();
+    let mut csv = header + "\n";
+    for frame in 0..3 {
+        let mut row = vec![frame.to_string(), format!("{}", frame as f64 / 24.0)];
+        row.extend((2..columns).map(|c| format!("{}", 0.1 * (c + frame) as f64)));
+        csv += &(row.join(",") + "\n");
+    }
+    std::fs::write(dir.join("metrics.csv"), csv).unwrap();
+    let png = wetcloth_render::plot_run(&dir).unwrap();
+    assert_eq!(png, dir.join("metrics.png"));
+    assert!(image::open(&png).unwrap().width() > 100);
+}

@@ -53,6 +53,18 @@ impl OrbitCamera {
         ))
     }
 
+    /// The 3/4 view of a cloth within the bounds `lo..hi` (m), with room above it for 0.3 of
+    /// its largest extent, as [`OrbitCamera::framing`] leaves above the grid (a cloth of any
+    /// shape, as placed).
+    pub fn framing_bounds(lo: Vec3, hi: Vec3) -> Self {
+        let size = (hi - lo).max_element();
+        let hi = hi + Vec3::Y * (0.3 * size);
+        Self::from_camera(&wetcloth_render::Camera::framing(
+            lo.to_array(),
+            hi.to_array(),
+        ))
+    }
+
     /// The orbit camera with the same eye, target and projection as a renderer camera (its up
     /// vector is taken to be +Y).
     pub fn from_camera(c: &wetcloth_render::Camera) -> Self {

@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use wetcloth::{FrameMetrics, Grab, GrabMotion, SimConfig, Simulation, Soa, Vec3};
+use wetcloth::{FrameMetrics, Grab, GrabMotion, Model, SimConfig, Simulation, Soa, Vec3};
 
 /// Longest run of steps between two looks at the commands, wall time.
 pub const SLICE: Duration = Duration::from_millis(12);
@@ -82,8 +82,9 @@ pub struct Snapshot {
     pub exact: Arc<Soa>,
     /// Smooth vertex normals.
     pub normals: Vec<[f32; 3]>,
-    /// Grid size (columns, rows).
-    pub resolution: [usize; 2],
+    /// The cloth's layout: the grid's size or a mesh's triangles (shared by every snapshot of
+    /// one simulation; a new one means a restart with another cloth).
+    pub cloth: Arc<ClothLayout>,
     /// The parameters in use.
     pub config: SimConfig,
     /// Measurements of this state.
@@ -107,6 +108,97 @@ pub struct Snapshot {
     /// Each particle's pocket id, or `wetcloth_export::NO_POCKET`; `None` with the thesis air
     /// model (its bubble lies under the whole cloth).
     pub pocket_of: Option<Vec<u32>>,
+}
+
+/// The cloth as the window draws and picks it: the built-in grid or a cloth of any shape. A
+/// pick is a particle index either way (on the grid `j * nx + i`; on a mesh the file's vertex).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClothLayout {
+    /// The grid's particles along x and z (columns, rows); `None` for a mesh cloth.
+    pub grid: Option<[usize; 2]>,
+    /// Particles.
+    pub particles: usize,
+    /// The triangles, three indices each, wound with the air below (the core's
+    /// `Model::triangles`: the grid's two per cell, or the mesh's faces as fans).
+    pub indices: Arc<Vec<u32>>,
+    /// The spacing of the particles at rest, m: the grid's along x, or a mesh's mean edge
+    /// length.
+    pub spacing: f64,
+    /// A mesh cloth's file name (without its folder); empty on the grid.
+    pub file: String,
+}
+
+impl ClothLayout {
+    /// The layout of `model`, built with `config`'s cloth.
+    pub fn new(model: &Model, config: &SimConfig) -> Self {
+        let c = &config.cloth;
+        let indices = Arc::new(model.triangles().into_iter().flatten().collect());
+        match (&model.grid, &model.mesh) {
+            (Some(g), _) => Self {
+                grid: Some([g.nx, g.nz]),
+                particles: g.len(),
+                indices,
+                spacing: c.size[0] / (c.resolution[0].max(2) - 1) as f64,
+                file: String::new(),
+            },
+            (None, mesh) => {
+                let spacing = mesh.as_ref().map_or(0.0, |m| {
+                    let sum: f64 = m
+                        .edges
+                        .iter()
+                        .map(|&[a, b]| (m.rest[b as usize] - m.rest[a as usize]).length())
+                        .sum();
+                    sum / m.edges.len().max(1) as f64
+                });
+                let file = c.mesh.as_ref().map_or_else(String::new, |m| {
+                    std::path::Path::new(&m.file)
+                        .file_name()
+                        .map_or_else(|| m.file.clone(), |f| f.to_string_lossy().into_owned())
+                });
+                Self {
+                    grid: None,
+                    particles: model.len(),
+                    indices,
+                    spacing,
+                    file,
+                }
+            }
+        }
+    }
+
+    /// The particle of grid column `i`, row `j`; `None` off the grid or on a mesh cloth.
+    pub fn grid_particle(&self, i: usize, j: usize) -> Option<usize> {
+        let [nx, nz] = self.grid?;
+        (i < nx && j < nz).then(|| j * nx + i)
+    }
+
+    /// The cloth in words for the view's caption: `40 × 40 particles` or
+    /// `609 particles (towel.obj)`.
+    pub fn describe(&self) -> String {
+        match self.grid {
+            Some([nx, nz]) => format!("{nx} × {nz} particles"),
+            None => format!("{} particles ({})", self.particles, self.file),
+        }
+    }
+}
+
+/// Area-weighted smooth vertex normals of `n` particles at positions `x` over the triangles
+/// `indices` (three each): each particle's normalised sum of the cross products of the
+/// triangles around it, +Y where they cancel. On the grid's triangles this is
+/// `Grid::vertex_normals` operation for operation.
+pub fn vertex_normals(x: &Soa, indices: &[u32]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; x.len()];
+    for t in indices.chunks_exact(3) {
+        let (a, b, c) = (t[0] as usize, t[1] as usize, t[2] as usize);
+        let w = (x.get(b) - x.get(a)).cross(x.get(c) - x.get(a));
+        n[a] += w;
+        n[b] += w;
+        n[c] += w;
+    }
+    for v in &mut n {
+        *v = v.normalize_or(Vec3::Y);
+    }
+    n
 }
 
 /// Handle to the simulation thread.
@@ -178,6 +270,8 @@ impl Drop for Runner {
 struct State {
     sim: Simulation,
     initial: Simulation,
+    /// The layout of `sim`'s cloth.
+    cloth: Arc<ClothLayout>,
     paused: bool,
     error: Option<String>,
     notice: Option<(u64, String)>,
@@ -199,6 +293,7 @@ impl State {
     fn new(sim: Simulation) -> Self {
         let now = Instant::now();
         Self {
+            cloth: Arc::new(ClothLayout::new(sim.model(), sim.config())),
             initial: sim.clone(),
             sim,
             paused: false,
@@ -221,9 +316,7 @@ impl State {
         let positions = (0..x.len())
             .map(|k| x.get(k).as_vec3().to_array())
             .collect();
-        let normals = sim
-            .grid()
-            .vertex_normals(x)
+        let normals = vertex_normals(x, &self.cloth.indices)
             .into_iter()
             .map(|n| n.as_vec3().to_array())
             .collect();
@@ -233,7 +326,7 @@ impl State {
             positions,
             exact: Arc::new(x.clone()),
             normals,
-            resolution: [sim.grid().nx, sim.grid().nz],
+            cloth: Arc::clone(&self.cloth),
             config: sim.config().clone(),
             metrics: FrameMetrics {
                 time: sim.time() + self.time_offset,
@@ -246,7 +339,7 @@ impl State {
             held: interactive_grabs(&self.sim),
             error: self.error.clone(),
             notice: self.notice.clone(),
-            pockets: sim.pocket_reports(),
+            pockets: pocket_reports(sim),
             pocket_of: wetcloth_export::particle_pocket_ids(sim),
         }
     }
@@ -260,6 +353,7 @@ impl State {
         self.guarded = false;
         let air = self.sim.air_enabled();
         self.initial = sim.clone();
+        self.cloth = Arc::new(ClothLayout::new(sim.model(), sim.config()));
         self.sim = sim;
         self.sim.set_air_enabled(air);
         self.generation += 1;
@@ -272,7 +366,7 @@ impl State {
     fn apply(&mut self, cmd: Command) -> bool {
         match cmd {
             Command::Hold { particle, target } => {
-                if particle >= self.sim.grid().len() {
+                if particle >= self.sim.particle_count() {
                     return true;
                 }
                 let motion = GrabMotion::Target {
@@ -332,6 +426,7 @@ impl State {
         let old = self.sim.config();
         let same_cloth = cfg.cloth.resolution == old.cloth.resolution
             && cfg.cloth.size == old.cloth.size
+            && cfg.cloth.mesh == old.cloth.mesh
             && cfg.grabs.is_empty()
             && old.grabs.is_empty();
         let mut sim = match Simulation::new(cfg) {
@@ -524,6 +619,23 @@ impl State {
     }
 }
 
+/// The sealed air pockets of `sim` (`Simulation::pocket_reports`). The thesis' single bubble
+/// under a mesh cloth is reported here from the bubble itself: the core's report counts its
+/// particles on the grid, which a mesh cloth does not have.
+fn pocket_reports(sim: &Simulation) -> Vec<wetcloth::air::PocketReport> {
+    match sim.air().bubble() {
+        Some(b) if sim.model().grid.is_none() => vec![wetcloth::air::PocketReport {
+            id: 0,
+            volume: b.volume,
+            amount: b.trapped_air,
+            pressure: b.pressure(&sim.config().air, sim.model(), sim.air_enabled()),
+            area: sim.model().cloth_area,
+            particles: u32::try_from(sim.particle_count()).unwrap_or(u32::MAX),
+        }],
+        _ => sim.pocket_reports(),
+    }
+}
+
 /// Index of the interactive grab holding `particle`.
 fn find_grab(sim: &Simulation, particle: usize) -> Option<usize> {
     sim.grabs()
@@ -660,7 +772,7 @@ mod tests {
         cfg.cloth.resolution = [12, 8];
         r.send(Command::Configure(Box::new(cfg)));
         let s = wait_for(&r, |s| s.generation == 2);
-        assert_eq!(s.resolution, [12, 8]);
+        assert_eq!(s.cloth.grid, Some([12, 8]));
         assert_eq!(s.positions.len(), 96);
     }
 
@@ -686,6 +798,85 @@ mod tests {
         assert!(s.metrics.time >= before.metrics.time, "time goes on");
         assert!((Vec3::from(s.positions[55].map(f64::from)) - target).length() < 1e-3);
         assert!(s.error.is_none());
+    }
+
+    /// The shipped mesh scene: a towel hung by its top edge.
+    fn towel() -> SimConfig {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../scenes/towel-pinned.toml"
+        );
+        wetcloth_scene::load(std::path::Path::new(path))
+            .unwrap()
+            .config
+    }
+
+    #[test]
+    fn the_normals_are_the_grids_on_the_grid() {
+        let mut cfg = small();
+        cfg.cloth.resolution = [7, 5];
+        let mut sim = Simulation::new(cfg).unwrap();
+        sim.advance(50).unwrap();
+        let layout = ClothLayout::new(sim.model(), sim.config());
+        assert_eq!(layout.grid, Some([7, 5]));
+        assert_eq!(layout.grid_particle(6, 4), Some(34));
+        assert_eq!(layout.grid_particle(7, 0), None);
+        let x = sim.positions();
+        assert_eq!(
+            vertex_normals(x, &layout.indices),
+            sim.model().grid().vertex_normals(x)
+        );
+    }
+
+    #[test]
+    fn a_mesh_cloth_is_drawn_and_any_vertex_can_be_held() {
+        let cfg = towel();
+        let vertices = cfg.cloth.mesh.as_ref().unwrap().vertices.len();
+        let r = Runner::start(cfg, || {}).unwrap();
+        let s = wait_for(&r, |s| s.metrics.time > 0.05);
+        assert!(s.error.is_none(), "{:?}", s.error);
+        assert_eq!(s.cloth.grid, None);
+        assert_eq!(s.cloth.particles, vertices);
+        assert_eq!(s.positions.len(), vertices);
+        assert_eq!(s.normals.len(), vertices);
+        assert!(
+            s.cloth.describe().contains("towel.obj"),
+            "{}",
+            s.cloth.describe()
+        );
+        assert!(s.cloth.indices.iter().all(|&i| (i as usize) < vertices));
+        assert!(
+            (0.02..0.03).contains(&s.cloth.spacing),
+            "{}",
+            s.cloth.spacing
+        );
+        assert_eq!(s.cloth.grid_particle(0, 0), None);
+        // The towel hangs in the xy plane: its normals point along z.
+        let n = s.normals[300];
+        assert!(n[2].abs() > 0.9, "{n:?}");
+        // The middle of its bottom edge, pulled up and forward.
+        let k = 598;
+        let target = Vec3::new(0.05, 0.8, 0.2);
+        r.send(Command::Hold {
+            particle: k,
+            target,
+        });
+        let s = wait_for(&r, |s| {
+            (Vec3::from(s.positions[k].map(f64::from)) - target).length() < 0.01
+        });
+        assert_eq!(s.held, vec![k]);
+        // A particle past the mesh is ignored.
+        r.send(Command::Hold {
+            particle: vertices,
+            target,
+        });
+        r.send(Command::Release { particle: k });
+        let s = wait_for(&r, |s| s.held.is_empty());
+        assert!(s.error.is_none(), "{:?}", s.error);
+        // A reset keeps the mesh's layout.
+        r.send(Command::Reset);
+        let s2 = wait_for(&r, |s| s.generation == 1);
+        assert_eq!(*s2.cloth, *s.cloth);
     }
 
     #[test]

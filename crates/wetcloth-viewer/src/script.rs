@@ -13,6 +13,7 @@
 //! | `move X Y` | move the mouse (no button) |
 //! | `pick X Y` | move the mouse there and press the left button (in pick mode: grabs the particle under it) |
 //! | `pick_particle I J` | the same, at the screen position of grid particle (column I, row J) |
+//! | `pick_particle K` | the same, at particle K (from 0; on a mesh cloth the file's vertex K, on the grid `J * NX + I`) |
 //! | `drag_to X Y [FRAMES]` | move the pressed mouse to X Y in a straight line over FRAMES frames (default 30) |
 //! | `wheel NOTCHES` | turn the wheel (positive: away from the user; while dragging this lifts the particle) |
 //! | `pin` | right click (while dragging: pins the particle where it is) |
@@ -20,6 +21,7 @@
 //! | `key NAME` | press and release a key: a letter, a digit, `Space`, `Period`, `Escape`, `F1`... |
 //! | `screenshot PATH` | save the window as a PNG |
 //! | `report` | print the readouts as one line on stdout (for measuring real time) |
+//! | `report_particle K` (or `I J` on the grid) | print the particle's position as one line on stdout: `wetcloth: particle K at X Y Z m` |
 //! | `quit` | close the window |
 
 use std::path::{Path, PathBuf};
@@ -42,8 +44,8 @@ pub enum Command {
     Move([f32; 2]),
     /// Move there and press the left button.
     Pick([f32; 2]),
-    /// Press the left button on grid particle (column, row).
-    PickParticle([usize; 2]),
+    /// Press the left button on a particle.
+    PickParticle(ParticleRef),
     /// Drag the pressed mouse to a normalised position over a number of frames.
     DragTo {
         /// Where to, normalised.
@@ -64,8 +66,28 @@ pub enum Command {
     /// Print the readouts (wall-clock and simulated time, real-time factor, steps and frames
     /// a second, hand force) as one line on stdout.
     Report,
+    /// Print a particle's position as one line on stdout.
+    ReportParticle(ParticleRef),
     /// Close the window.
     Quit,
+}
+
+/// A particle a script names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParticleRef {
+    /// Its index, from 0 (any cloth: on a mesh cloth the file's vertex).
+    Index(usize),
+    /// Grid column and row (the built-in grid only).
+    Grid([usize; 2]),
+}
+
+impl std::fmt::Display for ParticleRef {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Index(k) => write!(f, "{k}"),
+            Self::Grid([i, j]) => write!(f, "({i}, {j})"),
+        }
+    }
 }
 
 /// A script that could not be read.
@@ -161,12 +183,10 @@ pub fn parse(text: &str) -> Result<Vec<Command>, ScriptError> {
                 Command::Pick(pos("pick X Y")?)
             }
             "pick_particle" => {
-                want(2..=2, "pick_particle COLUMN ROW")?;
-                let ij = [args[0], args[1]].map(|a| a.parse::<usize>());
-                match ij {
-                    [Ok(i), Ok(j)] => Command::PickParticle([i, j]),
-                    _ => return Err(err("COLUMN and ROW are grid indices (0, 1, ...)".into())),
-                }
+                Command::PickParticle(particle_ref(&args, "pick_particle").map_err(err)?)
+            }
+            "report_particle" => {
+                Command::ReportParticle(particle_ref(&args, "report_particle").map_err(err)?)
             }
             "drag_to" => {
                 want(2..=3, "drag_to X Y [FRAMES]")?;
@@ -221,13 +241,28 @@ pub fn parse(text: &str) -> Result<Vec<Command>, ScriptError> {
             other => {
                 return Err(err(format!(
                     "unknown command `{other}` (wait, wait_frames, wait_sim, move, pick, \
-                     pick_particle, drag_to, wheel, pin, release, key, screenshot, report, quit)"
+                     pick_particle, drag_to, wheel, pin, release, key, screenshot, report, \
+                     report_particle, quit)"
                 )));
             }
         };
         out.push(cmd);
     }
     Ok(out)
+}
+
+/// The particle of a command's arguments: `K` (an index) or `COLUMN ROW` (on the grid).
+fn particle_ref(args: &[&str], name: &str) -> Result<ParticleRef, String> {
+    let numbers: Vec<_> = args.iter().map(|a| a.parse::<usize>()).collect();
+    match numbers.as_slice() {
+        [Ok(k)] => Ok(ParticleRef::Index(*k)),
+        [Ok(i), Ok(j)] => Ok(ParticleRef::Grid([*i, *j])),
+        [_] => Err(format!("{name} K: K is a particle index (0, 1, ...)")),
+        [_, _] => Err(format!(
+            "{name} COLUMN ROW: COLUMN and ROW are grid indices (0, 1, ...)"
+        )),
+        _ => Err(format!("usage: {name} K, or {name} COLUMN ROW on the grid")),
+    }
 }
 
 /// The egui key of a script key name: a letter or digit, or an egui key name (`Space`,
@@ -253,10 +288,14 @@ mod tests {
             "# lift the centre\n\
              wait 0.5\nwait_frames 3\nwait_sim 0.2\nwait_sim +0.1\nmove 0.1 0.2\npick 0.5 0.5\n\
              pick_particle 25 25\ndrag_to 0.5 0.3 20  # up\ndrag_to 0.4 0.3\nwheel -2\npin\n\
-             release\nkey A\nkey .\nkey Space\nscreenshot out dir/shot.png\nquit\n",
+             release\nkey A\nkey .\nkey Space\nscreenshot out dir/shot.png\nquit\n\
+             pick_particle 300\nreport_particle 7\nreport_particle 1 2\n",
         )
         .unwrap();
-        assert_eq!(s.len(), 17);
+        assert_eq!(s.len(), 20);
+        assert_eq!(s[17], Command::PickParticle(ParticleRef::Index(300)));
+        assert_eq!(s[18], Command::ReportParticle(ParticleRef::Index(7)));
+        assert_eq!(s[19], Command::ReportParticle(ParticleRef::Grid([1, 2])));
         assert_eq!(s[0], Command::Wait(0.5));
         assert_eq!(
             s[3],
@@ -266,7 +305,7 @@ mod tests {
             }
         );
         let s = &s[1..];
-        assert_eq!(s[5], Command::PickParticle([25, 25]));
+        assert_eq!(s[5], Command::PickParticle(ParticleRef::Grid([25, 25])));
         assert_eq!(
             s[6],
             Command::DragTo {
@@ -309,6 +348,10 @@ mod tests {
         assert!(e.contains("unknown key"), "{e}");
         let e = parse("wait soon\n").unwrap_err().to_string();
         assert!(e.contains("not a number"), "{e}");
+        let e = parse("pick_particle\n").unwrap_err().to_string();
+        assert!(e.contains("usage: pick_particle K"), "{e}");
+        let e = parse("report_particle -1\n").unwrap_err().to_string();
+        assert!(e.contains("particle index"), "{e}");
     }
 
     #[test]

@@ -25,36 +25,62 @@ const CHILD: &str = "WETCLOTH_E2E_VIEWER_SCRIPT";
 
 const PACKAGES: &str = "xvfb mesa-vulkan-drivers libvulkan1";
 
+/// Environment variable naming the scene file the viewer process opens (the thesis demo
+/// without it).
+const SCENE: &str = "WETCLOTH_E2E_VIEWER_SCENE";
+
+/// Environment variable that keeps the screenshots of a passing run (their folder is printed).
+const KEEP: &str = "WETCLOTH_E2E_KEEP";
+
+/// The tests, by name.
+const TESTS: [(&str, fn()); 2] = [
+    ("viewer_lifts_the_cloth", viewer_lifts_the_cloth),
+    (
+        "viewer_drags_a_vertex_of_a_mesh_cloth",
+        viewer_drags_a_vertex_of_a_mesh_cloth,
+    ),
+];
+
 fn main() {
     if let Ok(script) = std::env::var(CHILD) {
         viewer(Path::new(&script));
         return;
     }
-    // `cargo test NAME` passes filters; run unless one is given that does not match.
+    // `cargo test NAME` passes filters; run each test unless one is given that does not match.
     let filters: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
-    if !filters.is_empty()
-        && !filters
-            .iter()
-            .any(|f| "viewer_lifts_the_cloth".contains(f.as_str()))
-    {
-        println!("test viewer_lifts_the_cloth ... filtered out");
-        return;
+    let list = std::env::args().any(|a| a == "--list");
+    for (name, test) in TESTS {
+        if !filters.is_empty() && !filters.iter().any(|f| name.contains(f.as_str())) {
+            if !list {
+                println!("test {name} ... filtered out");
+            }
+            continue;
+        }
+        if list {
+            println!("{name}: test");
+            continue;
+        }
+        println!("test {name} ...");
+        test();
+        println!("test {name} ... ok");
     }
-    if std::env::args().any(|a| a == "--list") {
-        println!("viewer_lifts_the_cloth: test");
-        return;
-    }
-    println!("test viewer_lifts_the_cloth ...");
-    viewer_lifts_the_cloth();
-    println!("test viewer_lifts_the_cloth ... ok");
 }
 
-/// The viewer process: the thesis demo, driven by the script.
+/// The viewer process: the thesis demo, or the scene [`SCENE`] names, driven by the script.
 fn viewer(script: &Path) {
-    let mut opts = wetcloth_viewer::ViewerOptions::thesis_demo();
+    let mut opts = match std::env::var(SCENE) {
+        Ok(path) => {
+            let scene = wetcloth_scene::load(Path::new(&path)).unwrap_or_else(|e| {
+                eprintln!("viewer failed: {e}");
+                std::process::exit(1);
+            });
+            wetcloth_viewer::ViewerOptions::new(scene.config, scene.name)
+        }
+        Err(_) => wetcloth_viewer::ViewerOptions::thesis_demo(),
+    };
     opts.script = Some(script.to_path_buf());
     opts.exit_after_script = true;
     opts.window_size = [1100.0, 700.0];
@@ -220,12 +246,78 @@ fn distance(a: &image::Rgba<u8>, b: &image::Rgba<u8>) -> i32 {
         .sum()
 }
 
+/// Runs the viewer process on display `x` with `script` (and the scene file `scene`, or the
+/// thesis demo), waits for it to exit with status 0 and returns its stdout and stderr.
+fn run_viewer(x: &Xvfb, dir: &Path, script: &Path, scene: Option<&Path>) -> (String, String) {
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let mut command = Command::new(std::env::current_exe().unwrap());
+    command
+        .env(CHILD, script)
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("WGPU_BACKEND", "vulkan")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    match scene {
+        Some(s) => command.env(SCENE, s),
+        None => command.env_remove(SCENE),
+    };
+    let mut child = command.spawn().unwrap();
+    let read = |mut pipe: Box<dyn Read + Send>| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = pipe.read_to_string(&mut s);
+            s
+        })
+    };
+    let stdout = read(Box::new(child.stdout.take().unwrap()));
+    let stderr = read(Box::new(child.stderr.take().unwrap()));
+    let t = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if t.elapsed() > Duration::from_secs(240) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!(
+                "the viewer did not finish its script within 240 s:\n{}",
+                stderr.join().unwrap()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let (stdout, stderr) = (stdout.join().unwrap(), stderr.join().unwrap());
+    assert!(
+        status.success(),
+        "the viewer exited with {status}:\n{stdout}\n{stderr}"
+    );
+    (stdout, stderr)
+}
+
+/// A fresh folder for one test's files.
+fn test_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("wetcloth-e2e-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Removes a passing test's folder, unless [`KEEP`] is set.
+fn done_with(dir: &Path) {
+    if std::env::var_os(KEEP).is_some() {
+        println!("screenshots kept in {}", dir.display());
+    } else {
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}
+
 fn viewer_lifts_the_cloth() {
     check_vulkan();
     let x = start_xvfb();
-    let dir = std::env::temp_dir().join(format!("wetcloth-e2e-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = test_dir("lift");
     let before = dir.join("before.png");
     let after = dir.join("after.png");
     let pinned = dir.join("pinned.png");
@@ -255,44 +347,7 @@ fn viewer_lifts_the_cloth() {
     )
     .unwrap();
 
-    let runtime = dir.join("xdg");
-    std::fs::create_dir_all(&runtime).unwrap();
-    let mut child = Command::new(std::env::current_exe().unwrap())
-        .env(CHILD, &script)
-        .env("DISPLAY", &x.display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .env("WGPU_BACKEND", "vulkan")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr_pipe = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = stderr_pipe.read_to_string(&mut s);
-        s
-    });
-    let t = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if t.elapsed() > Duration::from_secs(240) {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!(
-                "the viewer did not finish its script within 240 s:\n{}",
-                reader.join().unwrap()
-            );
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    };
-    let stderr = reader.join().unwrap();
-    assert!(
-        status.success(),
-        "the viewer exited with {status}:\n{stderr}"
-    );
+    let (_, stderr) = run_viewer(&x, &dir, &script, None);
 
     let view = parse_view(&stderr, &after);
     let a = image::open(&before).unwrap().to_rgba8();
@@ -381,7 +436,110 @@ fn viewer_lifts_the_cloth() {
         "the view changed away from the drag (screenshots in {})",
         dir.display()
     );
-    let _ = std::fs::remove_dir_all(&dir);
+    done_with(&dir);
+}
+
+/// The particle's position in a `wetcloth: particle K at X Y Z m` line of `stdout`, the
+/// `n`-th such line (from 0).
+fn reported(stdout: &str, n: usize) -> [f32; 3] {
+    let line = stdout
+        .lines()
+        .filter(|l| l.starts_with("wetcloth: particle "))
+        .nth(n)
+        .unwrap_or_else(|| panic!("no particle report {n} in:\n{stdout}"));
+    let numbers: Vec<f32> = line
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    match numbers.as_slice() {
+        [_, x, y, z] => [*x, *y, *z],
+        _ => panic!("cannot read {line:?}"),
+    }
+}
+
+/// A cloth of any shape in the viewer: the pinned towel (`scenes/towel-pinned.toml`, an
+/// irregular triangle mesh hung by its top edge). The script lets it settle, reports the bottom
+/// middle vertex, picks that vertex by its index, drags it across the view, reports it again and
+/// lets go. The vertex must have followed the drag (moved well beyond its swing), the viewer
+/// must draw the cloth (the view differs from an empty table where the towel hangs) and exit
+/// with status 0 (a script step that fails, such as a vertex off screen, fails the run).
+fn viewer_drags_a_vertex_of_a_mesh_cloth() {
+    check_vulkan();
+    let x = start_xvfb();
+    let dir = test_dir("mesh");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/towel-pinned.toml");
+    let (before, after) = (dir.join("towel.png"), dir.join("towel-dragged.png"));
+    let script = dir.join("drag.txt");
+    // Vertex 598 is the file's (0, 0, 0.35): the middle of the towel's bottom edge.
+    std::fs::write(
+        &script,
+        format!(
+            "wait_sim 0.3\n\
+             report_particle 598\n\
+             screenshot {}\n\
+             pick_particle 598\n\
+             drag_to 0.85 0.3 20\n\
+             wait_sim +0.5\n\
+             report_particle 598\n\
+             screenshot {}\n\
+             release\n\
+             quit\n",
+            before.display(),
+            after.display()
+        ),
+    )
+    .unwrap();
+    let (stdout, stderr) = run_viewer(&x, &dir, &script, Some(&scene));
+    let (p0, p1) = (reported(&stdout, 0), reported(&stdout, 1));
+    let moved =
+        ((p1[0] - p0[0]).powi(2) + (p1[1] - p0[1]).powi(2) + (p1[2] - p0[2]).powi(2)).sqrt();
+    eprintln!("vertex 598 at {p0:?}, then at {p1:?} after the drag: moved {moved:.3} m");
+    // At rest it hangs at y = 0.65 m; the drag lifts it up and across.
+    assert!(
+        (p0[1] - 0.65).abs() < 0.1,
+        "the towel's bottom edge is not where it hangs: {p0:?}"
+    );
+    assert!(
+        moved > 0.1,
+        "the vertex did not follow the drag: {p0:?} then {p1:?} (screenshots in {})",
+        dir.display()
+    );
+    assert!(
+        p1[1] > p0[1] + 0.05,
+        "the drag up did not lift it: {p0:?} then {p1:?}"
+    );
+    // The towel is drawn: the view is not one colour, and the drag changed it.
+    let view = parse_view(&stderr, &before);
+    let a = image::open(&before).unwrap().to_rgba8();
+    let b = image::open(&after).unwrap().to_rgba8();
+    let (cx, cy) = view.at(0.5, 0.5);
+    let mut changed = 0;
+    let mut total = 0;
+    for y in (view.y as u32..(view.y + view.h) as u32).step_by(4) {
+        for x in (view.x as u32..(view.x + view.w) as u32).step_by(4) {
+            total += 1;
+            if distance(a.get_pixel(x, y), b.get_pixel(x, y)) > 40 {
+                changed += 1;
+            }
+        }
+    }
+    let (lx, ly) = view.at(0.05, 0.05);
+    let differs = distance(a.get_pixel(cx, cy), a.get_pixel(lx, ly)) > 40;
+    eprintln!(
+        "{:.1} % of the view changed with the drag",
+        100.0 * changed as f64 / total as f64
+    );
+    assert!(
+        differs,
+        "no cloth at the centre of the view (screenshots in {})",
+        dir.display()
+    );
+    assert!(
+        changed as f64 / total as f64 > 0.01,
+        "the view did not change with the drag (screenshots in {})",
+        dir.display()
+    );
+    done_with(&dir);
 }
 
 /// Normalised view height of the pick point and of the drag's end.

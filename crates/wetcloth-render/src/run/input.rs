@@ -19,15 +19,19 @@ pub const MAX_RUN_JSON_BYTES: u64 = 16 << 20;
 pub struct RunInfo {
     /// Scene name (names the MP4).
     pub name: String,
-    /// Particles along x and z; `[0, 0]` when `run.json` does not say.
+    /// Particles along x and z of the built-in grid; `[0, 0]` when `run.json` does not say,
+    /// and for a cloth of any shape (see [`RunInfo::mesh`]).
     pub resolution: [usize; 2],
+    /// A cloth of any shape (`run.json`'s `mesh`): its file and counts; `None` for the grid.
+    pub mesh: Option<MeshInfo>,
     /// Particle collision radius, m.
     pub particle_radius: f64,
     /// Frames per simulated second.
     pub frame_rate: f64,
     /// Colliders, as the core describes them.
     pub colliders: Vec<Collider>,
-    /// Grabbed particles as `[column, row]`.
+    /// Grabbed particles of the grid as `[column, row]` (none for a cloth of any shape, whose
+    /// particles have no column and row).
     pub grabs: Vec<[usize; 2]>,
     /// Frames the run wrote (`frame_0000.obj` up to `frames - 1`), when `run.json` says.
     pub frames: Option<u64>,
@@ -36,13 +40,28 @@ pub struct RunInfo {
     pub status: Option<String>,
 }
 
+/// `run.json`'s `mesh`: a cloth of any shape. Particle `k` is vertex `k` of every frame, and
+/// every frame has the faces of the mesh file (polygons kept).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct MeshInfo {
+    /// The mesh file the scene named (for messages; empty when `run.json` does not say).
+    pub file: String,
+    /// Vertices of every frame (`v` lines).
+    pub vertices: usize,
+    /// Faces of every frame (`f` lines, each a polygon of 3 or more corners).
+    pub faces: usize,
+}
+
 impl RunInfo {
-    /// Vertices and triangles of every frame of this run, when the resolution is known.
+    /// Vertices and triangles of every frame of this run, when the grid's resolution is known.
     pub fn mesh_size(&self) -> Option<(usize, usize)> {
         let [nx, nz] = self.resolution;
         (nx >= 2 && nz >= 2).then(|| (nx * nz, 2 * (nx - 1) * (nz - 1)))
     }
 }
+
+/// The most faces `run.json`'s `mesh` may have: four per vertex of the largest cloth.
+const MAX_MESH_FACES: u64 = 4 * wetcloth::model::MAX_MESH_PARTICLES as u64;
 
 /// `run.json` as written, every key optional.
 #[derive(Deserialize)]
@@ -57,6 +76,45 @@ struct RawRunInfo {
     grabs: Option<Vec<[u64; 2]>>,
     frames: Option<u64>,
     status: Option<String>,
+    /// A cloth of any shape; its other keys (the copy, placement, bounds) are not read.
+    mesh: Option<RawMeshInfo>,
+}
+
+/// `run.json`'s `mesh` as written.
+#[derive(Deserialize)]
+struct RawMeshInfo {
+    file: Option<String>,
+    vertices: Option<u64>,
+    faces: Option<u64>,
+}
+
+impl RawMeshInfo {
+    fn check(self) -> Result<MeshInfo, String> {
+        let max = wetcloth::model::MAX_MESH_PARTICLES as u64;
+        let vertices = match self.vertices {
+            None => return Err("mesh.vertices is missing: a mesh run says how many".into()),
+            Some(v) if (3..=max).contains(&v) => v as usize,
+            Some(v) => {
+                return Err(format!(
+                    "mesh.vertices = {v} is out of range: allowed [3, {max}]"
+                ));
+            }
+        };
+        let faces = match self.faces {
+            None => return Err("mesh.faces is missing: a mesh run says how many".into()),
+            Some(f) if (1..=MAX_MESH_FACES).contains(&f) => f as usize,
+            Some(f) => {
+                return Err(format!(
+                    "mesh.faces = {f} is out of range: allowed [1, {MAX_MESH_FACES}]"
+                ));
+            }
+        };
+        Ok(MeshInfo {
+            file: self.file.unwrap_or_default(),
+            vertices,
+            faces,
+        })
+    }
 }
 
 /// The statuses a run can be in.
@@ -65,7 +123,9 @@ const STATUSES: [&str; 4] = ["running", "complete", "interrupted", "failed"];
 impl RawRunInfo {
     /// The checked run information, or what is wrong (naming the key).
     fn check(self, run_dir: &Path) -> Result<RunInfo, String> {
-        let resolution = match self.resolution {
+        let mesh = self.mesh.map(RawMeshInfo::check).transpose()?;
+        // A mesh run's resolution, if it has one, means nothing.
+        let resolution = match self.resolution.filter(|_| mesh.is_none()) {
             None => [0, 0],
             Some(r) if r.iter().all(|n| (2..=4096).contains(n)) => r.map(|n| n as usize),
             Some(r) => {
@@ -121,7 +181,8 @@ impl RawRunInfo {
                 }
             })?;
         }
-        let grabs = self.grabs.unwrap_or_default();
+        // A mesh run's grabs name no column and row.
+        let grabs = self.grabs.filter(|_| mesh.is_none()).unwrap_or_default();
         for (i, g) in grabs.iter().enumerate() {
             if resolution == [0, 0] {
                 return Err(format!(
@@ -154,6 +215,7 @@ impl RawRunInfo {
         Ok(RunInfo {
             name: self.name.unwrap_or_default(),
             resolution,
+            mesh,
             particle_radius,
             frame_rate,
             colliders,
@@ -165,7 +227,8 @@ impl RawRunInfo {
 }
 
 /// Reads `RUN_DIR/run.json`; `Ok(None)` when there is none. Every value the renderer uses is
-/// checked: a resolution outside [2, 4096], a negative or huge particle radius, a frame rate
+/// checked: a resolution outside [2, 4096], a `mesh` without its vertex and face counts or with
+/// counts out of range (a mesh run's `resolution` and `grabs` are not read), a negative or huge particle radius, a frame rate
 /// outside [1, 10000], a collider with a non-finite or huge coordinate, a zero normal or a
 /// non-positive size, a grab outside the cloth or an unknown status is refused, naming the key.
 pub fn read_run_info(run_dir: &Path) -> Result<Option<RunInfo>, RenderError> {
@@ -193,15 +256,21 @@ pub fn read_run_info(run_dir: &Path) -> Result<Option<RunInfo>, RenderError> {
 pub struct ObjMesh {
     /// Vertex positions, m.
     pub positions: Vec<[f32; 3]>,
-    /// Triangle indices.
+    /// Triangle indices (each face as a fan of triangles from its first corner).
     pub indices: Vec<u32>,
-    /// The grid size `[nx, nz]` named by the header comment wetcloth writes
+    /// Faces (`f` lines) read, each a polygon of 3 or more corners.
+    pub faces: usize,
+    /// The grid size `[nx, nz]` named by the header comment wetcloth writes for the grid
     /// (`# wetcloth cloth mesh: NX x NZ particles`), if the file has one.
     pub header_resolution: Option<[usize; 2]>,
+    /// The particles and faces `[n, f]` named by the header comment wetcloth writes for a cloth
+    /// of any shape (`# wetcloth cloth mesh: N particles, F faces`), if the file has one.
+    pub header_mesh: Option<[usize; 2]>,
 }
 
 /// Reads an OBJ mesh: every `v` line (positions keep their file order, so vertex k is
-/// particle k) and every `f` line (polygons split into triangles; `v`, `v/vt`, `v/vt/vn`,
+/// particle k) and every `f` line (polygons split into a fan of triangles from their first
+/// corner for drawing; `v`, `v/vt`, `v/vt/vn`,
 /// `v//vn` and negative, relative indices). Other lines (`vt`, `vn`, `o`, comments, ...) are
 /// skipped.
 ///
@@ -297,9 +366,11 @@ pub fn read_obj(path: &Path) -> Result<ObjMesh, RenderError> {
                     mesh.indices
                         .extend([polygon[0], polygon[k], polygon[k + 1]]);
                 }
+                mesh.faces += 1;
             }
-            Some("#") if mesh.header_resolution.is_none() => {
+            Some("#") if mesh.header_resolution.is_none() && mesh.header_mesh.is_none() => {
                 mesh.header_resolution = header_resolution(line);
+                mesh.header_mesh = header_mesh(line);
             }
             _ => {}
         }
@@ -335,6 +406,18 @@ fn header_resolution(line: &str) -> Option<[usize; 2]> {
     Some([a.trim().parse().ok()?, b.trim().parse().ok()?])
 }
 
+/// `[n, f]` from wetcloth's header comment of a cloth of any shape,
+/// `# wetcloth cloth mesh: N particles, F faces`.
+fn header_mesh(line: &str) -> Option<[usize; 2]> {
+    let rest = line
+        .trim()
+        .strip_prefix("# wetcloth cloth mesh:")?
+        .trim()
+        .strip_suffix("faces")?;
+    let (n, f) = rest.split_once("particles,")?;
+    Some([n.trim().parse().ok()?, f.trim().parse().ok()?])
+}
+
 fn parse_error(path: &Path, line: Option<usize>, message: String) -> RenderError {
     RenderError::Parse {
         path: path.to_path_buf(),
@@ -343,24 +426,52 @@ fn parse_error(path: &Path, line: Option<usize>, message: String) -> RenderError
     }
 }
 
+/// The cloth every frame of a run must be.
+#[derive(Clone, Debug, PartialEq)]
+enum Cloth {
+    /// The built-in grid: `nx * nz` vertices, two triangles per cell.
+    Grid([usize; 2]),
+    /// A cloth of any shape: its vertices and faces (polygons), and its file, if known.
+    Mesh {
+        vertices: usize,
+        faces: usize,
+        file: String,
+    },
+}
+
 /// Checks that the frames of a run are meshes of one cloth: the vertex and triangle counts of
-/// the run's resolution (from `run.json`, or else the first frame's header), and the same
-/// triangles as the first frame read (vertex k is particle k in every frame).
+/// the run's grid, or the vertex and face counts of its mesh (from `run.json`, or else the first
+/// frame's header), and the same triangles as the first frame read (vertex k is particle k in
+/// every frame).
 #[derive(Debug, Default)]
 pub(super) struct FrameCheck {
-    /// `[nx, nz]` and where it comes from.
-    resolution: Option<([usize; 2], String)>,
+    /// The cloth and where it comes from.
+    cloth: Option<(Cloth, String)>,
     /// The first frame checked, its vertex count and its triangles.
     reference: Option<(PathBuf, usize, Vec<u32>)>,
 }
 
 impl FrameCheck {
-    /// A check against the run's resolution, if `run.json` gives one.
+    /// A check against the run's cloth, if `run.json` gives it.
     pub(super) fn new(info: Option<&RunInfo>) -> Self {
+        let cloth = info.and_then(|i| match &i.mesh {
+            Some(m) => Some((
+                Cloth::Mesh {
+                    vertices: m.vertices,
+                    faces: m.faces,
+                    file: m.file.clone(),
+                },
+                "run.json's mesh".to_string(),
+            )),
+            None => i.mesh_size().map(|_| {
+                (
+                    Cloth::Grid(i.resolution),
+                    "run.json's resolution".to_string(),
+                )
+            }),
+        });
         Self {
-            resolution: info
-                .filter(|i| i.mesh_size().is_some())
-                .map(|i| (i.resolution, "run.json's resolution".to_string())),
+            cloth,
             reference: None,
         }
     }
@@ -374,28 +485,70 @@ impl FrameCheck {
 
     fn check(&mut self, path: &Path, mesh: &ObjMesh) -> Result<(), RenderError> {
         let refuse = |message: String| parse_error(path, None, message);
-        if self.resolution.is_none()
-            && let Some(r) = mesh.header_resolution
-            && r.iter().all(|n| (2..=4096).contains(n))
-        {
-            self.resolution = Some((r, format!("the header of {}", path.display())));
+        if self.cloth.is_none() {
+            let from = || format!("the header of {}", path.display());
+            if let Some(r) = mesh.header_resolution
+                && r.iter().all(|n| (2..=4096).contains(n))
+            {
+                self.cloth = Some((Cloth::Grid(r), from()));
+            } else if let Some([n, f]) = mesh.header_mesh
+                && n >= 3
+                && f >= 1
+            {
+                let cloth = Cloth::Mesh {
+                    vertices: n,
+                    faces: f,
+                    file: String::new(),
+                };
+                self.cloth = Some((cloth, from()));
+            }
         }
-        if let Some(([nx, nz], from)) = &self.resolution {
-            let (v, t) = (nx * nz, 2 * (nx - 1) * (nz - 1));
-            if mesh.positions.len() != v {
-                return Err(refuse(format!(
-                    "{} vertices where a {nx} x {nz} cloth ({from}) has {v}: the frame is \
-                     truncated or from another run",
-                    mesh.positions.len()
-                )));
+        match &self.cloth {
+            Some((Cloth::Grid([nx, nz]), from)) => {
+                let (v, t) = (nx * nz, 2 * (nx - 1) * (nz - 1));
+                if mesh.positions.len() != v {
+                    return Err(refuse(format!(
+                        "{} vertices where a {nx} x {nz} cloth ({from}) has {v}: the frame is \
+                         truncated or from another run",
+                        mesh.positions.len()
+                    )));
+                }
+                if mesh.indices.len() / 3 != t {
+                    return Err(refuse(format!(
+                        "{} triangles where a {nx} x {nz} cloth ({from}) has {t}: the frame is \
+                         truncated or from another run",
+                        mesh.indices.len() / 3
+                    )));
+                }
             }
-            if mesh.indices.len() / 3 != t {
-                return Err(refuse(format!(
-                    "{} triangles where a {nx} x {nz} cloth ({from}) has {t}: the frame is \
-                     truncated or from another run",
-                    mesh.indices.len() / 3
-                )));
+            Some((
+                Cloth::Mesh {
+                    vertices,
+                    faces,
+                    file,
+                },
+                from,
+            )) => {
+                let name = match Path::new(file).file_name() {
+                    Some(f) => format!("the mesh cloth {}", f.to_string_lossy()),
+                    None => "the mesh cloth".to_string(),
+                };
+                if mesh.positions.len() != *vertices {
+                    return Err(refuse(format!(
+                        "{} vertices where {name} ({from}) has {vertices}: the frame is \
+                         truncated or from another run",
+                        mesh.positions.len()
+                    )));
+                }
+                if mesh.faces != *faces {
+                    return Err(refuse(format!(
+                        "{} faces where {name} ({from}) has {faces}: the frame is truncated or \
+                         from another run",
+                        mesh.faces
+                    )));
+                }
             }
+            None => {}
         }
         match &self.reference {
             None => {
@@ -416,7 +569,7 @@ impl FrameCheck {
                 }
                 if *indices != mesh.indices {
                     return Err(refuse(format!(
-                        "its triangles differ from those of {} (every frame of a run is the \
+                        "its faces differ from those of {} (every frame of a run is the \
                          same mesh, vertex k being particle k): the frame is damaged or from \
                          another run",
                         first.display()

@@ -22,7 +22,7 @@ use std::time::Instant;
 
 pub use frames::{FrameSelection, list_frames};
 pub use framing::CameraSpec;
-pub use input::{ObjMesh, RunInfo, read_obj, read_run_info};
+pub use input::{MeshInfo, ObjMesh, RunInfo, read_obj, read_run_info};
 pub use options::{ImageSize, RenderOptions, parse_pressure_range, parse_wetness};
 pub use pockets::{PocketPressures, draw_legend, pressure_colour};
 pub use video::ffmpeg_available;
@@ -96,8 +96,10 @@ pub struct RunCheck {
     pub frames: usize,
     /// Vertices of every frame.
     pub vertices: usize,
-    /// Triangles of every frame.
+    /// Triangles of every frame (its faces split into fans).
     pub triangles: usize,
+    /// Faces (`f` lines) of every frame: the triangles of the grid, the polygons of a mesh.
+    pub faces: usize,
 }
 
 /// Reads and checks everything [`render_run`] reads, without a graphics device: `run.json`,
@@ -114,16 +116,17 @@ pub fn check_run(run_dir: &Path) -> Result<RunCheck, RenderError> {
         frames::check_complete(run_dir, &all, written)?;
     }
     let mut check = FrameCheck::new(info.as_ref());
-    let mut size = (0, 0);
+    let mut size = (0, 0, 0);
     for (_, path) in &all {
         let mesh = check.read(path)?;
-        size = (mesh.positions.len(), mesh.indices.len() / 3);
+        size = (mesh.positions.len(), mesh.indices.len() / 3, mesh.faces);
     }
     Ok(RunCheck {
         info,
         frames: all.len(),
         vertices: size.0,
         triangles: size.1,
+        faces: size.2,
     })
 }
 
@@ -199,8 +202,9 @@ pub fn render_run_with_progress(
     let moving = info
         .as_ref()
         .is_some_and(|i| i.colliders.iter().any(|c| c.is_moving()));
+    // A mesh run's grabs name no grid particle (run.json lists none).
     let grabbed: Vec<usize> = match &info {
-        Some(i) if opts.show_grabs => {
+        Some(i) if opts.show_grabs && i.mesh.is_none() => {
             let nx = i.resolution[0];
             i.grabs.iter().map(|[c, r]| r * nx + c).collect()
         }

@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 
 use super::{Edit, PointerMode, ViewerApp};
-use crate::camera::OrbitCamera;
 use crate::record::Recorder;
 use crate::runner::Command;
 
@@ -101,9 +100,7 @@ impl ViewerApp {
                 self.history.clear();
                 self.last_plot_time = -1.0;
                 self.scene_name = scene.name;
-                let c = &self.base_config.cloth;
-                self.camera =
-                    OrbitCamera::framing(c.position.as_vec3(), c.size[0].max(c.size[1]) as f32);
+                self.camera = super::cloth_camera(&self.base_config);
                 self.say(format!("Opened {}", path.display()));
             }
             Err(e) => self.warn(format!("Cannot open {}: {e}", path.display())),

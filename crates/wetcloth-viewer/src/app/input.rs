@@ -4,7 +4,6 @@ use eframe::egui::{self, Event, Key, Modifiers, PointerButton, Vec2 as EVec2};
 use glam::Vec2;
 
 use super::{PointerMode, ViewerApp};
-use crate::camera::OrbitCamera;
 use crate::pick::{self, Drag, PICK_RADIUS_PX};
 use crate::runner::Command;
 
@@ -53,9 +52,7 @@ impl ViewerApp {
                 Key::C => self.toggle_record(),
                 Key::H | Key::F1 => self.show_help = !self.show_help,
                 Key::V => {
-                    let c = &self.snap.config.cloth;
-                    self.camera =
-                        OrbitCamera::framing(c.position.as_vec3(), c.size[0].max(c.size[1]) as f32);
+                    self.camera = super::cloth_camera(&self.snap.config);
                 }
                 Key::Escape => self.end_drag(),
                 _ => {}

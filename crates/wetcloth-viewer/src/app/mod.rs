@@ -21,13 +21,13 @@ use std::time::Instant;
 
 use eframe::egui::{self, Pos2, RichText, Vec2 as EVec2};
 use glam::{Mat4, Vec2, Vec3};
-use wetcloth::{Grid, SimConfig};
+use wetcloth::SimConfig;
 
 use crate::ViewerOptions;
 use crate::camera::OrbitCamera;
 use crate::pick::{Drag, Pins, Viewport};
 use crate::record::Recorder;
-use crate::runner::{Runner, Snapshot};
+use crate::runner::{ClothLayout, Runner, Snapshot};
 use crate::script::Command as ScriptCmd;
 use crate::view3d;
 use parameters::Edit;
@@ -87,24 +87,45 @@ pub(crate) struct ViewerApp {
     pocket_tint: bool,
 }
 
-/// Triangle indices of the current grid (they change only on a restart).
+/// Triangle indices of the current cloth, the grid's or a mesh's (they change only on a
+/// restart).
 struct MeshCache {
     generation: u64,
-    resolution: [usize; 2],
-    indices: Arc<Vec<u32>>,
+    cloth: Arc<ClothLayout>,
     /// The ground and the solids, from the colliders' own description.
     scene: Arc<view3d::ColliderScene>,
 }
 
 impl MeshCache {
     fn new(snap: &Snapshot) -> Self {
-        let grid = Grid::new(&snap.config.cloth);
         Self {
             generation: snap.generation,
-            resolution: snap.resolution,
-            indices: Arc::new(grid.triangles().into_iter().flatten().collect()),
+            cloth: Arc::clone(&snap.cloth),
             scene: Arc::new(wetcloth_render::collider_scene(&snap.config.colliders)),
         }
+    }
+
+    fn indices(&self) -> Arc<Vec<u32>> {
+        Arc::clone(&self.cloth.indices)
+    }
+}
+
+/// The camera's 3/4 view of the cloth of `config` at t = 0: the grid's square (its larger
+/// side) around its centre, or the bounds of a mesh cloth as placed.
+pub(crate) fn cloth_camera(config: &SimConfig) -> OrbitCamera {
+    let c = &config.cloth;
+    let grid = || OrbitCamera::framing(c.position.as_vec3(), c.size[0].max(c.size[1]) as f32);
+    let Some(m) = &c.mesh else {
+        return grid();
+    };
+    let placed = m.placed(c.position);
+    let lo = placed.iter().copied().reduce(|a, b| a.min(b));
+    let hi = placed.iter().copied().reduce(|a, b| a.max(b));
+    match (lo, hi) {
+        (Some(lo), Some(hi)) if (hi - lo).is_finite() => {
+            OrbitCamera::framing_bounds(lo.as_vec3(), hi.as_vec3())
+        }
+        _ => grid(),
     }
 }
 
@@ -125,11 +146,7 @@ impl ViewerApp {
         let runner = Runner::start(opts.scene, move || ctx.request_repaint())
             .map_err(|e| format!("the scene is invalid: {e}"))?;
         let snap = runner.latest();
-        let c = &snap.config.cloth;
-        let camera = OrbitCamera::framing(
-            glam::DVec3::new(c.position.x, c.position.y, c.position.z).as_vec3(),
-            c.size[0].max(c.size[1]) as f32,
-        );
+        let camera = cloth_camera(&snap.config);
         style(&cc.egui_ctx);
         Ok(Self {
             mesh: MeshCache::new(&snap),
@@ -217,7 +234,7 @@ impl ViewerApp {
         {
             self.message = Some((text.clone(), true));
         }
-        if snap.generation != self.mesh.generation || snap.resolution != self.mesh.resolution {
+        if snap.generation != self.mesh.generation || !Arc::ptr_eq(&snap.cloth, &self.mesh.cloth) {
             self.mesh = MeshCache::new(&snap);
             self.edit = Edit::from_config(&snap.config);
             self.drag = None;

@@ -63,7 +63,8 @@ impl Edit {
         }
         c.simulation.integrator = self.integrator;
         c.simulation.implicit_budget = self.budget;
-        if self.resolution != c.cloth.resolution[0] {
+        // A mesh cloth has no resolution to change.
+        if c.cloth.mesh.is_none() && self.resolution != c.cloth.resolution[0] {
             // Keep the aspect of non-square grids; scene grabs name particles of the old grid.
             let r0 = c.cloth.resolution;
             let ratio = r0[1] as f64 / r0[0] as f64;
@@ -97,6 +98,10 @@ fn budget_label(b: wetcloth::SolveBudget) -> &'static str {
 
 impl ViewerApp {
     pub(super) fn parameters(&mut self, ui: &mut egui::Ui) {
+        let mesh = match self.snap.cloth.grid {
+            Some(_) => String::new(),
+            None => self.snap.cloth.describe(),
+        };
         let e = &mut self.edit;
         // A change applies when the slider is let go (or a typed value is entered), so a drag
         // across the range does not restart anything on the way.
@@ -189,9 +194,16 @@ impl ViewerApp {
                     ),
                 );
                 ui.end_row();
-                ui.label("Resolution")
-                    .on_hover_text("Particles per side; a new resolution restarts the run");
-                done(ui.add(slider(&mut e.resolution, 4..=100).suffix(" per side")));
+                if mesh.is_empty() {
+                    ui.label("Resolution")
+                        .on_hover_text("Particles per side; a new resolution restarts the run");
+                    done(ui.add(slider(&mut e.resolution, 4..=100).suffix(" per side")));
+                } else {
+                    // A cloth of any shape has the particles of its file.
+                    ui.label("Cloth")
+                        .on_hover_text("A cloth read from a mesh file: a particle per vertex");
+                    ui.label(mesh.as_str());
+                }
                 ui.end_row();
             });
         commit |= switched;

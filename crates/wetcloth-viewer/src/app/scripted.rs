@@ -11,7 +11,8 @@ use glam::Vec3;
 
 use super::ViewerApp;
 use crate::pick;
-use crate::script::{self, Command as ScriptCmd};
+use crate::runner::Snapshot;
+use crate::script::{self, Command as ScriptCmd, ParticleRef};
 
 /// Replays a script, one command at a time, as input events.
 pub(super) struct Player {
@@ -100,23 +101,21 @@ impl ViewerApp {
                     events.push(button(to_pos(p), PointerButton::Primary, true));
                     true
                 }
-                ScriptCmd::PickParticle([i, j]) => {
-                    let [nx, nz] = snap.resolution;
-                    let k = (i < nx && j < nz).then(|| j * nx + i);
-                    let proj = k.and_then(|k| {
-                        pick::project(view_proj, vp, Vec3::from_array(snap.positions[k]))
-                    });
+                ScriptCmd::PickParticle(which) => {
+                    let proj = match particle_index(&snap, which) {
+                        Ok(k) => pick::project(view_proj, vp, Vec3::from_array(snap.positions[k]))
+                            .ok_or_else(|| format!("script: particle {which} is not on screen")),
+                        Err(e) => Err(e),
+                    };
                     match proj {
-                        Some(q) => {
+                        Ok(q) => {
                             let p = [q.pixel.x / vp.width, q.pixel.y / vp.height];
                             pl.pointer = p;
                             pl.pressed = true;
                             events.push(Event::PointerMoved(to_pos(p)));
                             events.push(button(to_pos(p), PointerButton::Primary, true));
                         }
-                        None => actions.push(ScriptAction::Warn(format!(
-                            "script: particle ({i}, {j}) is not on screen"
-                        ))),
+                        Err(e) => actions.push(ScriptAction::Warn(e)),
                     }
                     true
                 }
@@ -193,6 +192,16 @@ impl ViewerApp {
                     );
                     true
                 }
+                ScriptCmd::ReportParticle(which) => {
+                    match particle_index(&snap, which) {
+                        Ok(k) => {
+                            let [x, y, z] = snap.positions[k];
+                            println!("wetcloth: particle {k} at {x} {y} {z} m");
+                        }
+                        Err(e) => actions.push(ScriptAction::Warn(e)),
+                    }
+                    true
+                }
                 ScriptCmd::Quit => {
                     actions.push(ScriptAction::Quit);
                     pl.commands.clear();
@@ -260,6 +269,32 @@ enum ScriptAction {
     Warn(String),
     Finished,
     Quit,
+}
+
+/// The index of the particle a script names, or why it names none: an index past the cloth's
+/// particles, or a grid column and row outside the grid or on a mesh cloth.
+fn particle_index(snap: &Snapshot, which: ParticleRef) -> Result<usize, String> {
+    let n = snap.positions.len();
+    let k = match which {
+        ParticleRef::Index(k) => Some(k),
+        ParticleRef::Grid([i, j]) => match snap.cloth.grid {
+            Some(_) => snap.cloth.grid_particle(i, j),
+            None => {
+                return Err(format!(
+                    "script: particle {which} names a grid column and row, but the cloth is a \
+                     mesh: name its particle by index (0 to {})",
+                    n.saturating_sub(1)
+                ));
+            }
+        },
+    };
+    match k {
+        Some(k) if k < n => Ok(k),
+        _ => Err(format!(
+            "script: there is no particle {which}: the cloth has {}",
+            snap.cloth.describe()
+        )),
+    }
 }
 
 fn button(pos: Pos2, button: PointerButton, pressed: bool) -> Event {

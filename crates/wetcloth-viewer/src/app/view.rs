@@ -2,9 +2,9 @@
 
 use std::sync::Arc;
 
+use crate::runner::ClothLayout;
 use eframe::egui::{self, Color32, Pos2, Sense, Vec2 as EVec2};
 use glam::Vec3;
-use wetcloth::SimConfig;
 
 use super::{PointerMode, ViewerApp};
 use crate::pick;
@@ -35,10 +35,10 @@ impl ViewerApp {
         let frame = view3d::Frame {
             positions: s.positions.clone(),
             normals: s.normals.clone(),
-            indices: Arc::clone(&self.mesh.indices),
+            indices: self.mesh.indices(),
             scene,
             show_particles: self.pick_mode,
-            particle_radius: particle_size(&s.config),
+            particle_radius: particle_size(&s.cloth),
             highlight: self.drag.map(|d| d.particle).or(self.hover),
             pinned: self.pins.particles(),
             camera: self.camera,
@@ -82,9 +82,8 @@ impl ViewerApp {
         }
         // Corner caption.
         let info = format!(
-            "{} × {} particles · dt = 1/{:.0} s{}",
-            s.resolution[0],
-            s.resolution[1],
+            "{} · dt = 1/{:.0} s{}",
+            s.cloth.describe(),
             1.0 / s.config.simulation.time_step,
             if s.paused { " · paused" } else { "" }
         );
@@ -104,9 +103,8 @@ impl ViewerApp {
     }
 }
 
-/// Radius of the particle markers in pick mode, m: a fifth of the grid spacing.
-fn particle_size(c: &SimConfig) -> f32 {
-    let cl = &c.cloth;
-    let dx = cl.size[0] / (cl.resolution[0].max(2) - 1) as f64;
-    (dx / 5.0) as f32
+/// Radius of the particle markers in pick mode, m: a fifth of the particle spacing (the
+/// grid's, or a mesh's mean edge).
+fn particle_size(cloth: &ClothLayout) -> f32 {
+    (cloth.spacing / 5.0) as f32
 }
