@@ -39,13 +39,6 @@ pub fn view(args: &ViewArgs) -> Result<(), CliError> {
     let mut opts = match &args.scene {
         Some(path) => {
             let scene = wetcloth_scene::load(path)?;
-            if scene.config.cloth.mesh.is_some() {
-                return Err(CliError::Usage(format!(
-                    "{}: the viewer shows the built-in grid cloth; a mesh cloth ([cloth] mesh) \
-                     runs with `wetcloth run` (its frames and caches keep the mesh's faces)",
-                    path.display()
-                )));
-            }
             let mut o = ViewerOptions::new(scene.config, scene.name);
             o.scene_path = Some(path.clone());
             o

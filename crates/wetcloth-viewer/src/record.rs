@@ -38,14 +38,6 @@ impl Recorder {
     /// `scene.toml` and starts the writer for a session of the scene `name` with `config` (whose
     /// grid is kept for the whole recording).
     pub fn start(dir: &Path, name: &str, config: &SimConfig) -> io::Result<Self> {
-        // The frames are written as the grid's; a mesh cloth's are not (yet) recorded.
-        if config.cloth.mesh.is_some() {
-            return Err(io::Error::new(
-                io::ErrorKind::Unsupported,
-                "recording a cloth of any shape ([cloth] mesh) is not supported: use `wetcloth \
-                 run` for its frames",
-            ));
-        }
         let frames_dir = dir.join("frames");
         fs::create_dir_all(&frames_dir)?;
         for entry in fs::read_dir(&frames_dir)? {

@@ -339,7 +339,7 @@ impl State {
             held: interactive_grabs(&self.sim),
             error: self.error.clone(),
             notice: self.notice.clone(),
-            pockets: pocket_reports(sim),
+            pockets: sim.pocket_reports(),
             pocket_of: wetcloth_export::particle_pocket_ids(sim),
         }
     }
@@ -616,23 +616,6 @@ impl State {
             self.rates = (sim_dt.max(0.0) / dt, steps as f64 / dt);
             self.window = (Instant::now(), self.sim.time(), self.sim.step_count());
         }
-    }
-}
-
-/// The sealed air pockets of `sim` (`Simulation::pocket_reports`). The thesis' single bubble
-/// under a mesh cloth is reported here from the bubble itself: the core's report counts its
-/// particles on the grid, which a mesh cloth does not have.
-fn pocket_reports(sim: &Simulation) -> Vec<wetcloth::air::PocketReport> {
-    match sim.air().bubble() {
-        Some(b) if sim.model().grid.is_none() => vec![wetcloth::air::PocketReport {
-            id: 0,
-            volume: b.volume,
-            amount: b.trapped_air,
-            pressure: b.pressure(&sim.config().air, sim.model(), sim.air_enabled()),
-            area: sim.model().cloth_area,
-            particles: u32::try_from(sim.particle_count()).unwrap_or(u32::MAX),
-        }],
-        _ => sim.pocket_reports(),
     }
 }
 
