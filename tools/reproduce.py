@@ -359,15 +359,15 @@ def main():
         with open(runs[n] / "grabs.csv") as f:
             grabs[n] = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
     img["towel-pinned"] = render(runs["towel-pinned"], "beyond-towel-pinned", 3.0,
-                                 "yaw=-30 pitch=10 distance=2.2 target=0,1.0,0")
+                                 "yaw=-30 pitch=10 distance=2.0 target=0,0.95,0")
     img["towel-lift-middle"] = render(runs["towel-lift-middle"], "beyond-towel-lift-middle", 2.0,
-                                      "yaw=-35 pitch=30 distance=1.0 target=0,0,0",
+                                      "yaw=-35 pitch=25 distance=0.45 target=0,0.005,0",
                                       extra=tint)
     img["towel-lift-corner"] = render(runs["towel-lift-corner"], "beyond-towel-lift-corner", 2.0,
                                       "yaw=-35 pitch=30 distance=1.0 target=-0.1,0,-0.15",
                                       extra=tint)
     img["tablecloth-round"] = render(runs["tablecloth-round"], "beyond-tablecloth-round", 2.5,
-                                     "yaw=-60 pitch=20 distance=2.4 target=0,0.6,0")
+                                     "yaw=40 pitch=15 distance=2.4 target=0.2,0.5,0")
     # Speed: the pockets model against the thesis' on the bench workload, alternating runs.
     pk_bench = {"thesis": [], "pockets": []}
     for r in range(3):
