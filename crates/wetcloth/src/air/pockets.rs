@@ -1358,12 +1358,12 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
     x
 }
 
-/// How close a seeded pocket's volume at t = 0 comes to its amount, relative ([`lift_seeds`]):
+/// How close a seeded pocket's volume at t = 0 comes to its amount, relative (`lift_seeds`):
 /// its pressure starts within this share of atmospheric.
 pub const SEED_TOLERANCE: Real = 1e-10;
 
 /// The largest bulge (height over footprint radius) of a seeded pocket's cap before its
-/// footprint widens beyond the seed's disc ([`lift_seeds`]): 0.1, the cloth stretched by 0.7 %.
+/// footprint widens beyond the seed's disc (`lift_seeds`): 0.1, the cloth stretched by 0.7 %.
 pub const SEED_BULGE: Real = 0.1;
 
 /// The largest bulge of a seeded pocket's caps ([`lift_seeds`]): hemispheres.
