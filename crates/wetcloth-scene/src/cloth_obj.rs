@@ -6,7 +6,7 @@
 //! the run applies to the user's original object. Particle `k` is the `k`-th `v` line.
 //! Normals, groups, materials and comments are skipped. Errors name the line.
 
-use crate::obj::{MAX_COORDINATE, ObjError};
+use crate::obj::ObjError;
 use wetcloth::model::MAX_MESH_PARTICLES;
 use wetcloth::{Real, Vec3};
 
@@ -56,35 +56,7 @@ pub fn parse_cloth(text: &str) -> Result<ClothObj, ObjError> {
         let mut words = content.split_whitespace();
         match words.next() {
             Some("v") => {
-                let mut c = [0.0; 3];
-                for (i, slot) in c.iter_mut().enumerate() {
-                    let w = words.next().ok_or_else(|| {
-                        err(format!(
-                            "a vertex needs 3 coordinates, found {i}: `{content}`"
-                        ))
-                    })?;
-                    *slot = w
-                        .parse::<Real>()
-                        .map_err(|_| err(format!("vertex coordinate `{w}` is not a number")))?;
-                }
-                let v = Vec3::from(c);
-                if !v.is_finite() {
-                    return Err(err(format!(
-                        "vertex {} is not finite: [{}, {}, {}]",
-                        m.vertices.len() + 1,
-                        v.x,
-                        v.y,
-                        v.z
-                    )));
-                }
-                if let Some(&x) = c.iter().find(|x| x.abs() > MAX_COORDINATE) {
-                    return Err(err(format!(
-                        "vertex {} has the coordinate {x:e}, out of range: allowed each in \
-                         [-{MAX_COORDINATE:e}, {MAX_COORDINATE:e}] (the file's units; `scale` \
-                         converts them to metres)",
-                        m.vertices.len() + 1
-                    )));
-                }
+                let v = crate::obj::vertex(&mut words, content, m.vertices.len()).map_err(err)?;
                 if m.vertices.len() == MAX_MESH_PARTICLES {
                     return Err(err(format!(
                         "more than {MAX_MESH_PARTICLES} vertices: a cloth may have at most \

@@ -33,6 +33,43 @@ pub struct ObjError {
     pub message: String,
 }
 
+/// The `v` line `content` whose words after `v` are `words`: three finite coordinates within
+/// [`MAX_COORDINATE`] (`count` vertices read before it, for the message).
+pub(crate) fn vertex<'a>(
+    words: &mut impl Iterator<Item = &'a str>,
+    content: &str,
+    count: usize,
+) -> Result<Vec3, String> {
+    let mut c = [0.0; 3];
+    for (i, slot) in c.iter_mut().enumerate() {
+        let w = words
+            .next()
+            .ok_or_else(|| format!("a vertex needs 3 coordinates, found {i}: `{content}`"))?;
+        *slot = w
+            .parse::<Real>()
+            .map_err(|_| format!("vertex coordinate `{w}` is not a number"))?;
+    }
+    let v = Vec3::from(c);
+    if !v.is_finite() {
+        return Err(format!(
+            "vertex {} is not finite: [{}, {}, {}]",
+            count + 1,
+            v.x,
+            v.y,
+            v.z
+        ));
+    }
+    if let Some(&x) = c.iter().find(|x| x.abs() > MAX_COORDINATE) {
+        return Err(format!(
+            "vertex {} has the coordinate {x:e}, out of range: allowed each in \
+             [-{MAX_COORDINATE:e}, {MAX_COORDINATE:e}] (the file's units; `scale` converts \
+             them to metres)",
+            count + 1
+        ));
+    }
+    Ok(v)
+}
+
 /// Parses OBJ text.
 pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
     let mut m = ObjMesh::default();
@@ -43,35 +80,7 @@ pub fn parse(text: &str) -> Result<ObjMesh, ObjError> {
         let mut words = content.split_whitespace();
         match words.next() {
             Some("v") => {
-                let mut c = [0.0; 3];
-                for (i, slot) in c.iter_mut().enumerate() {
-                    let w = words.next().ok_or_else(|| {
-                        err(format!(
-                            "a vertex needs 3 coordinates, found {i}: `{content}`"
-                        ))
-                    })?;
-                    *slot = w
-                        .parse::<Real>()
-                        .map_err(|_| err(format!("vertex coordinate `{w}` is not a number")))?;
-                }
-                let v = Vec3::from(c);
-                if !v.is_finite() {
-                    return Err(err(format!(
-                        "vertex {} is not finite: [{}, {}, {}]",
-                        m.vertices.len() + 1,
-                        v.x,
-                        v.y,
-                        v.z
-                    )));
-                }
-                if let Some(&x) = c.iter().find(|x| x.abs() > MAX_COORDINATE) {
-                    return Err(err(format!(
-                        "vertex {} has the coordinate {x:e}, out of range: allowed each in \
-                         [-{MAX_COORDINATE:e}, {MAX_COORDINATE:e}] (the file's units; `scale` \
-                         converts them to metres)",
-                        m.vertices.len() + 1
-                    )));
-                }
+                let v = vertex(&mut words, content, m.vertices.len()).map_err(err)?;
                 m.vertices.push(v);
             }
             Some("f") => {

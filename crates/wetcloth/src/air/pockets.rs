@@ -183,6 +183,27 @@ struct Scratch {
     keep_open: Vec<bool>,
 }
 
+/// The root of `a`'s set in the union-find forest `parent`, halving the path on the way.
+fn find(parent: &mut [u32], mut a: u32) -> u32 {
+    while parent[a as usize] != a {
+        let up = parent[parent[a as usize] as usize];
+        parent[a as usize] = up;
+        a = up;
+    }
+    a
+}
+
+/// Joins the sets of `a` and `b` in `parent`; the smaller index is the root, so roots are
+/// canonical whatever the order of the joins.
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    if ra < rb {
+        parent[rb as usize] = ra;
+    } else if rb < ra {
+        parent[ra as usize] = rb;
+    }
+}
+
 /// What a resegmentation found of its regions, region by region: open to the room, room for
 /// air (m^3), cells, summed permeability of the cells (its mean times the cells), area (m^2).
 struct Regions {
@@ -671,23 +692,6 @@ impl Pockets {
         let sc = &mut self.scratch;
         sc.parent.clear();
         sc.parent.extend(0..cells as u32);
-        fn find(parent: &mut [u32], mut a: u32) -> u32 {
-            while parent[a as usize] != a {
-                let up = parent[parent[a as usize] as usize];
-                parent[a as usize] = up;
-                a = up;
-            }
-            a
-        }
-        fn union(parent: &mut [u32], a: u32, b: u32) {
-            let (ra, rb) = (find(parent, a), find(parent, b));
-            // The smaller index is the root, so roots are canonical whatever the order.
-            if ra < rb {
-                parent[rb as usize] = ra;
-            } else if rb < ra {
-                parent[ra as usize] = rb;
-            }
-        }
         for j in 0..nz - 1 {
             for i in 0..m {
                 if !air_cell(i, j) {
@@ -805,23 +809,13 @@ impl Pockets {
         let sc = &mut self.scratch;
         sc.parent.clear();
         sc.parent.extend(0..cells as u32);
-        fn find(parent: &mut [u32], mut a: u32) -> u32 {
-            while parent[a as usize] != a {
-                let up = parent[parent[a as usize] as usize];
-                parent[a as usize] = up;
-                a = up;
-            }
-            a
-        }
         for (e, &[t, u]) in mesh.edge_faces.iter().enumerate() {
             let [a, b] = mesh.edges[e];
             if u == NONE || !(corner(a) || corner(b)) {
                 continue;
             }
             if air_cell(t as usize) && air_cell(u as usize) {
-                let (ra, rb) = (find(&mut sc.parent, t), find(&mut sc.parent, u));
-                // The smaller index is the root: canonical whatever the order.
-                sc.parent[ra.max(rb) as usize] = ra.min(rb);
+                union(&mut sc.parent, t, u);
             }
         }
         sc.region.clear();

@@ -121,6 +121,23 @@ impl ImplicitMesh {
             + self.fixed.capacity()
     }
 
+    /// Solves the step's system for `rhs` into `x` (the free rows; the known ones zero) with the
+    /// preconditioned conjugate gradient, counting its iterations.
+    fn solve(&mut self, rhs: &Soa, x: &mut Soa, tolerance: Real, parallel: bool) {
+        let iters = pcg(
+            &self.a,
+            &mut self.pre,
+            rhs,
+            x,
+            &self.fixed,
+            tolerance,
+            MAX_ITERATIONS,
+            parallel,
+            &mut self.cg,
+        );
+        self.total_iterations += iters as u64;
+    }
+
     /// Assembles `M (1 + dt c) + dt^2 H` at positions `x`.
     fn assemble(&mut self, model: &Model, springs: &MeshSprings, x: &Soa, dt: Real) {
         for v in &mut self.a.val {
@@ -247,18 +264,9 @@ impl ImplicitMesh {
                 free_v.set(k, Vec3::ZERO);
             }
         }
-        let iters = pcg(
-            &self.a,
-            &mut self.pre,
-            &self.rhs,
-            &mut free_v,
-            &self.fixed,
-            tolerance,
-            MAX_ITERATIONS,
-            parallel,
-            &mut self.cg,
-        );
-        self.total_iterations += iters as u64;
+        let rhs = std::mem::take(&mut self.rhs);
+        self.solve(&rhs, &mut free_v, tolerance, parallel);
+        self.rhs = rhs;
         for k in 0..n {
             if !self.fixed[k] {
                 self.v.set(k, free_v.get(k));
@@ -285,18 +293,9 @@ impl ImplicitMesh {
                         .set(k, self.force.get(k) + self.per_pascal.get(k) * dp[k]);
                 }
                 self.w = Soa::zeros(n);
-                let iters = pcg(
-                    &self.a,
-                    &mut self.pre,
-                    &rhs_p,
-                    &mut self.w,
-                    &self.fixed,
-                    tolerance,
-                    MAX_ITERATIONS,
-                    parallel,
-                    &mut self.cg,
-                );
-                self.total_iterations += iters as u64;
+                let mut w = std::mem::take(&mut self.w);
+                self.solve(&rhs_p, &mut w, tolerance, parallel);
+                self.w = w;
                 for k in 0..n {
                     if !self.fixed[k] {
                         self.v.set(k, self.v.get(k) + self.w.get(k));
@@ -315,18 +314,9 @@ impl ImplicitMesh {
                 }
             }
             self.w = Soa::zeros(n);
-            let iters = pcg(
-                &self.a,
-                &mut self.pre,
-                &rhs_p,
-                &mut self.w,
-                &self.fixed,
-                tolerance,
-                MAX_ITERATIONS,
-                parallel,
-                &mut self.cg,
-            );
-            self.total_iterations += iters as u64;
+            let mut w = std::mem::take(&mut self.w);
+            self.solve(&rhs_p, &mut w, tolerance, parallel);
+            self.w = w;
             let dp = match model.sticking {
                 Some(plane) => {
                     let up = plane.up;
@@ -417,15 +407,6 @@ impl ImplicitMesh {
         }
         prev.clone_from(&state.x);
         state.x = next;
-        fused
-            .measures
-            .remeasure_mesh(model.layout(), &state.x, model.sticking, model.radius);
-        match fused.reference {
-            Some(reference) => (0..n)
-                .filter(|&k| !control.held[k])
-                .map(|k| (state.x.get(k) - reference.get(k)).length_squared())
-                .fold(0.0, Real::max),
-            None => 0.0,
-        }
+        super::verlet_mesh::finish_step(model, &state.x, &control.held, fused)
     }
 }

@@ -140,6 +140,22 @@ pub(crate) fn resolve_contacts(
     (work * 1e12).round() * 1e-12
 }
 
+/// The end of a mesh step: the new positions `x` measured into `fused.measures`, and the largest
+/// squared distance (m^2) of a particle no hand holds (`held`) from `fused.reference` (0
+/// without one).
+pub(crate) fn finish_step(model: &Model, x: &Soa, held: &[bool], fused: Fused<'_>) -> Real {
+    fused
+        .measures
+        .remeasure_mesh(model.layout(), x, model.sticking, model.radius);
+    match fused.reference {
+        Some(reference) => (0..x.len())
+            .filter(|&k| !held[k])
+            .map(|k| (x.get(k) - reference.get(k)).length_squared())
+            .fold(0.0, Real::max),
+        None => 0.0,
+    }
+}
+
 impl MeshVerlet {
     /// Scratch for `n` particles of `layout`.
     pub fn new(layout: Layout<'_>, n: usize) -> Self {
@@ -288,15 +304,6 @@ impl MeshVerlet {
             }
         }
         control.hand_work += hand;
-        fused
-            .measures
-            .remeasure_mesh(model.layout(), &state.x, model.sticking, model.radius);
-        match fused.reference {
-            Some(reference) => (0..n)
-                .filter(|&k| !control.held[k])
-                .map(|k| (state.x.get(k) - reference.get(k)).length_squared())
-                .fold(0.0, Real::max),
-            None => 0.0,
-        }
+        finish_step(model, &state.x, &control.held, fused)
     }
 }
