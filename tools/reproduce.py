@@ -742,8 +742,8 @@ def main():
       f"{fmt(weight)} N |")
     lc, lm = m["towel-lift-corner"], m["towel-lift-middle"]
     pc, pm = max(r["grab_force"] for r in lc), max(r["grab_force"] for r in lm)
-    w(f"| `towel-lift-corner` | peak hand force lifting a corner 5 cm (open to the room) | {fmt(pc)} N |")
-    w(f"| `towel-lift-middle` | peak hand force lifting the middle 5 cm (a sealed pocket), "
+    w(f"| `towel-lift-corner` | peak hand force lifting a corner 1.5 cm (open to the room) | {fmt(pc)} N |")
+    w(f"| `towel-lift-middle` | peak hand force lifting the middle 1.5 cm (a sealed pocket), "
       f"lowest pocket pressure | {fmt(pm)} N, "
       f"{fmt(min(r['air_pressure'] for r in lm) / 1e3, 5)} kPa |")
     w(f"| | middle / corner | {fmt(pm / pc)}x |")
