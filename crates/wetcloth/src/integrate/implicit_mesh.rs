@@ -58,6 +58,13 @@ pub(crate) struct ImplicitMesh {
     per_pascal: Soa,
     force: Soa,
     fixed: Vec<bool>,
+    /// Scratch kept between steps (a step allocates none): the free unknowns, a pressure's
+    /// right-hand side, the coasting positions and their measures, the new positions.
+    free: Soa,
+    rhs_p: Soa,
+    coast: Soa,
+    coast_measures: crate::measure::Measures,
+    next: Soa,
     /// CG iterations over every step.
     pub total_iterations: u64,
 }
@@ -68,6 +75,13 @@ const TOLERANCE_CONVERGED: Real = 1e-8;
 const TOLERANCE_INTERACTIVE: Real = 1e-3;
 /// Most CG iterations of one solve.
 const MAX_ITERATIONS: usize = 2000;
+
+/// Sets every vector of `v` to zero.
+fn zero(v: &mut Soa) {
+    for c in [&mut v.x, &mut v.y, &mut v.z] {
+        c.fill(0.0);
+    }
+}
 
 impl ImplicitMesh {
     /// Scratch for `model`'s mesh.
@@ -102,6 +116,11 @@ impl ImplicitMesh {
             w: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
             force: Soa::zeros(n),
+            free: Soa::zeros(n),
+            rhs_p: Soa::zeros(n),
+            coast: Soa::zeros(n),
+            coast_measures: crate::measure::Measures::for_layout(model.layout(), true),
+            next: Soa::zeros(n),
             fixed: vec![false; n],
             total_iterations: 0,
         }
@@ -114,11 +133,29 @@ impl ImplicitMesh {
             + self.pre.heap_bytes()
             + self.cg.heap_bytes()
             + self.spring_force.capacity() * 24
-            + [&self.rhs, &self.v, &self.w, &self.per_pascal, &self.force]
-                .iter()
-                .map(|s| s.heap_bytes())
-                .sum::<usize>()
+            + [
+                &self.rhs,
+                &self.v,
+                &self.w,
+                &self.per_pascal,
+                &self.force,
+                &self.free,
+                &self.rhs_p,
+                &self.coast,
+                &self.next,
+            ]
+            .iter()
+            .map(|s| s.heap_bytes())
+            .sum::<usize>()
+            + self.coast_measures.heap_bytes()
             + self.fixed.capacity()
+    }
+
+    /// The coasting positions `x + dt v` (m) into the scratch.
+    fn coast_at(&mut self, x: &Soa, dt: Real) {
+        for k in 0..x.len() {
+            self.coast.set(k, x.get(k) + self.v.get(k) * dt);
+        }
     }
 
     /// Solves the step's system for `rhs` into `x` (the free rows; the known ones zero) with the
@@ -258,7 +295,8 @@ impl ImplicitMesh {
         self.pre.refresh(&self.a, &self.fixed);
         // The solve sees the known velocities as fixed; their columns are in the rhs, so the
         // product is of the free unknowns only.
-        let mut free_v = self.v.clone();
+        let mut free_v = std::mem::take(&mut self.free);
+        free_v.clone_from(&self.v);
         for k in 0..n {
             if self.fixed[k] {
                 free_v.set(k, Vec3::ZERO);
@@ -272,30 +310,42 @@ impl ImplicitMesh {
                 self.v.set(k, free_v.get(k));
             }
         }
+        self.free = free_v;
         // The pockets' end-of-step pressures: solved by the air model from the coasting
         // positions, then their force's response added by one more solve.
         if pressure_now.is_none() && air.model.pockets().is_some() {
-            let mut coast = x.clone();
-            for k in 0..n {
-                coast.set(k, x.get(k) + self.v.get(k) * dt);
-            }
-            let mut measures = crate::measure::Measures::for_layout(model.layout(), true);
-            measures.remeasure_mesh(model.layout(), &coast, model.sticking, model.radius);
-            air.model
-                .solve_end_of_step(air.params, model, &coast, &measures, &control.held);
+            self.coast_at(x, dt);
+            self.coast_measures.keep_cells = true;
+            self.coast_measures.remeasure_mesh(
+                model.layout(),
+                &self.coast,
+                model.sticking,
+                model.radius,
+            );
+            air.model.solve_end_of_step(
+                air.params,
+                model,
+                &self.coast,
+                &self.coast_measures,
+                &control.held,
+            );
             if let AirLoad::PerParticle(dp) = air.model.load(air.params) {
-                let mut rhs_p = Soa::zeros(n);
+                let mut rhs_p = std::mem::take(&mut self.rhs_p);
                 for k in 0..n {
-                    if !self.fixed[k] && dp[k] != 0.0 {
-                        rhs_p.set(k, self.per_pascal.get(k) * (dp[k] * dt));
-                    }
+                    let f = if !self.fixed[k] && dp[k] != 0.0 {
+                        self.per_pascal.get(k) * (dp[k] * dt)
+                    } else {
+                        Vec3::ZERO
+                    };
+                    rhs_p.set(k, f);
                     self.force
                         .set(k, self.force.get(k) + self.per_pascal.get(k) * dp[k]);
                 }
-                self.w = Soa::zeros(n);
                 let mut w = std::mem::take(&mut self.w);
+                zero(&mut w);
                 self.solve(&rhs_p, &mut w, tolerance, parallel);
                 self.w = w;
+                self.rhs_p = rhs_p;
                 for k in 0..n {
                     if !self.fixed[k] {
                         self.v.set(k, self.v.get(k) + self.w.get(k));
@@ -307,26 +357,33 @@ impl ImplicitMesh {
         if pressure_now.is_none()
             && let Some(solve) = air.model.take_end_of_step()
         {
-            let mut rhs_p = Soa::zeros(n);
+            let mut rhs_p = std::mem::take(&mut self.rhs_p);
             for k in 0..n {
-                if !self.fixed[k] {
-                    rhs_p.set(k, self.per_pascal.get(k) * dt);
-                }
+                let f = if self.fixed[k] {
+                    Vec3::ZERO
+                } else {
+                    self.per_pascal.get(k) * dt
+                };
+                rhs_p.set(k, f);
             }
-            self.w = Soa::zeros(n);
             let mut w = std::mem::take(&mut self.w);
+            zero(&mut w);
             self.solve(&rhs_p, &mut w, tolerance, parallel);
             self.w = w;
+            self.rhs_p = rhs_p;
             let dp = match model.sticking {
                 Some(plane) => {
                     let up = plane.up;
                     let contact = up.dot(plane.point) + model.radius;
-                    let mut coast = x.clone();
-                    for k in 0..n {
-                        coast.set(k, x.get(k) + self.v.get(k) * dt);
-                    }
-                    let mut measures = crate::measure::Measures::for_layout(model.layout(), false);
-                    measures.remeasure_mesh(model.layout(), &coast, model.sticking, model.radius);
+                    self.coast_at(x, dt);
+                    self.coast_measures.keep_cells = false;
+                    self.coast_measures.remeasure_mesh(
+                        model.layout(),
+                        &self.coast,
+                        model.sticking,
+                        model.radius,
+                    );
+                    let (coast, measures) = (&self.coast, &self.coast_measures);
                     // Each free particle ends `g_k + r_k dP` above contact (its coasting gap
                     // plus its move per pascal along the normal), or on the surface if that is
                     // below it: the volume is the coasting one plus the area times the change.
@@ -390,7 +447,7 @@ impl ImplicitMesh {
             .iter()
             .map(|c| contact::Frames::of(c, t, dt))
             .collect();
-        let mut next = Soa::zeros(n);
+        let mut next = std::mem::take(&mut self.next);
         for k in 0..n {
             next.set(k, x.get(k) + self.v.get(k) * dt);
         }
@@ -405,8 +462,10 @@ impl ImplicitMesh {
                 .acceleration
                 .set(k, ((next.get(k) - x.get(k)) / dt - v0) / dt);
         }
-        prev.clone_from(&state.x);
-        state.x = next;
+        // The new positions in, the old ones to the previous; the previous' room is kept.
+        std::mem::swap(&mut state.x, &mut next);
+        std::mem::swap(prev, &mut next);
+        self.next = next;
         super::verlet_mesh::finish_step(model, &state.x, &control.held, fused)
     }
 }
