@@ -224,12 +224,13 @@ impl MeshVerlet {
         }
         // The pressure (eq. 3.7): of the step's start, or of its end from the coasting
         // positions.
-        let load_of = |air: &Air<'_>| -> (Real, Option<Vec<Real>>) {
+        // The load borrowed from the air model, no copy: one difference, or one per particle.
+        fn load_of<'b>(air: &'b Air<'_>) -> (Real, Option<&'b [Real]>) {
             match air.model.load(air.params) {
                 AirLoad::Uniform(p) => (p, None),
-                AirLoad::PerParticle(p) => (1.0, Some(p.to_vec())),
+                AirLoad::PerParticle(p) => (1.0, Some(p)),
             }
-        };
+        }
         let pressure_now = |pressure: &mut Soa, p: Real, each: Option<&[Real]>| {
             for_each(pressure, parallel, |k| {
                 let dp = each.map_or(p, |e| e[k]);
@@ -245,7 +246,7 @@ impl MeshVerlet {
                 let (p, each) = load_of(&air);
                 let acts = p != 0.0 || each.is_some();
                 if acts {
-                    pressure_now(&mut self.pressure, p, each.as_deref());
+                    pressure_now(&mut self.pressure, p, each);
                 }
                 for k in 0..n {
                     let mut f = self.force.get(k);
@@ -273,7 +274,7 @@ impl MeshVerlet {
                 air.model
                     .solve_end_of_step(air.params, model, prev, &self.coast, &control.held);
                 let (p, each) = load_of(&air);
-                pressure_now(&mut self.pressure, p, each.as_deref());
+                pressure_now(&mut self.pressure, p, each);
                 for k in 0..n {
                     let fp = self.pressure.get(k);
                     self.force.set(k, self.force.get(k) + fp);
