@@ -6,8 +6,8 @@ use wetcloth::metrics::COLUMNS;
 
 /// The header of `metrics.csv`, without the line end: `frame` followed by
 /// [`wetcloth::metrics::COLUMNS`]. Units: frame number, s, m^3, Pa, J, ratio, ratio 0..1, m, N,
-/// m^3, count.
-pub const CSV_HEADER: &str = "frame,time,air_volume,air_pressure,kinetic_energy,max_stretch,contact_fraction,max_height,grab_force,trapped_air,pocket_count";
+/// m^3, count, J.
+pub const CSV_HEADER: &str = "frame,time,air_volume,air_pressure,kinetic_energy,max_stretch,contact_fraction,max_height,grab_force,trapped_air,pocket_count,elastic_energy";
 
 /// The header built from [`wetcloth::metrics::COLUMNS`] (equal to [`CSV_HEADER`]; a test keeps
 /// them in step).
@@ -228,6 +228,7 @@ mod tests {
             grab_force: 2.5,
             trapped_air: 4e-4,
             pocket_count: 1.0,
+            elastic_energy: 0.125,
         };
         csv.write_row(7, &m).unwrap();
         assert_eq!(csv.rows(), 1);
@@ -236,7 +237,7 @@ mod tests {
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(
             lines[1],
-            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5,0.0004,1"
+            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5,0.0004,1,0.125"
         );
         let parsed: Vec<f64> = lines[1].split(',').map(|v| v.parse().unwrap()).collect();
         assert_eq!(parsed[1..], m.values());

@@ -98,8 +98,11 @@ pub fn parse_metrics(text: &str, path: &Path) -> Result<Metrics, RenderError> {
         return Err(err(1, "empty file: expected a header line and rows".into()));
     };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
-    // `pocket_count` came later: a file without it still plots.
-    for c in COLUMNS.into_iter().filter(|c| *c != "pocket_count") {
+    // `pocket_count` and `elastic_energy` came later: a file without them still plots.
+    for c in COLUMNS
+        .into_iter()
+        .filter(|c| *c != "pocket_count" && *c != "elastic_energy")
+    {
         if !names.contains(&c) {
             return Err(err(
                 hl + 1,

@@ -39,7 +39,16 @@ pub const CLOTH: &[&str] = &[
     "rotation",
     "scale",
     "flip_normals",
+    "model",
+    "membrane",
+    "bending",
+    "density",
+    "material",
 ];
+/// Keys of `[cloth.membrane]`.
+pub const MEMBRANE: &[&str] = &["warp", "weft", "shear", "poisson"];
+/// Keys of `[cloth.bending]`.
+pub const BENDING: &[&str] = &["stiffness", "warp", "weft", "rest"];
 /// Keys of a `[[cloth.paint]]` region.
 pub const PAINT: &[&str] = &["center", "radius", "half_size", "wetness"];
 /// Keys of `[air]`.
@@ -99,6 +108,8 @@ enum Place {
     Paint,
     Pocket,
     ColliderKey,
+    Membrane,
+    Bending,
 }
 
 impl Place {
@@ -115,6 +126,8 @@ impl Place {
             Place::Paint => PAINT,
             Place::Pocket => POCKET,
             Place::ColliderKey => COLLIDER_KEY,
+            Place::Membrane => MEMBRANE,
+            Place::Bending => BENDING,
         }
     }
 
@@ -129,6 +142,8 @@ impl Place {
             (Place::Grab, "keys") => Some(Place::GrabKey),
             (Place::Grab, "within") => Some(Place::Within),
             (Place::Cloth, "paint") => Some(Place::Paint),
+            (Place::Cloth, "membrane") => Some(Place::Membrane),
+            (Place::Cloth, "bending") => Some(Place::Bending),
             (Place::Air, "pocket") => Some(Place::Pocket),
             (Place::Collider, "keys") => Some(Place::ColliderKey),
             _ => None,
@@ -148,11 +163,13 @@ impl Place {
             Place::Paint => "cloth.paint[].",
             Place::Pocket => "air.pocket[].",
             Place::ColliderKey => "collider[].keys[].",
+            Place::Membrane => "cloth.membrane.",
+            Place::Bending => "cloth.bending.",
         }
     }
 }
 
-const ALL_PLACES: [Place; 11] = [
+const ALL_PLACES: [Place; 13] = [
     Place::Top,
     Place::Simulation,
     Place::Cloth,
@@ -164,6 +181,8 @@ const ALL_PLACES: [Place; 11] = [
     Place::Paint,
     Place::Pocket,
     Place::ColliderKey,
+    Place::Membrane,
+    Place::Bending,
 ];
 
 /// An unknown key found in a document.

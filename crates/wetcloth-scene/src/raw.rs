@@ -13,7 +13,7 @@ use wetcloth::{
     PaintShape, PocketSeed, PressureForce, PressureSolve, Real, Shape, SimConfig, SimulationParams,
     SolveBudget, Vec3, WetPaint,
 };
-use wetcloth::{ClothMeshSource, GrabPick};
+use wetcloth::{BendingRest, ClothMeshSource, ClothModel, GrabPick, MembraneParams};
 
 /// A fixed-length array that, unlike `[T; N]`, refuses extra elements.
 struct Arr<T, const N: usize>([T; N]);
@@ -75,6 +75,29 @@ struct RawCloth {
     rotation: Option<Spanned<Arr<Real, 3>>>,
     scale: Option<Spanned<Real>>,
     flip_normals: Option<Spanned<bool>>,
+    model: Option<Spanned<String>>,
+    membrane: Option<RawMembrane>,
+    bending: Option<RawBending>,
+    density: Option<Spanned<Real>>,
+    material: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMembrane {
+    warp: Option<Real>,
+    weft: Option<Real>,
+    shear: Option<Real>,
+    poisson: Option<Real>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBending {
+    stiffness: Option<Real>,
+    warp: Option<Real>,
+    weft: Option<Real>,
+    rest: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -436,6 +459,7 @@ fn convert(
         set(&mut d.water_mass, c.water_mass);
         set(&mut d.dry_friction_factor, c.dry_friction_factor);
         set(&mut d.wet_adhesion, c.wet_adhesion);
+        fabric_keys(cx, d, &c)?;
         if let Some(file) = &c.mesh {
             for (k, given) in [
                 ("size", c.size.is_some()),
@@ -921,6 +945,98 @@ fn collider(
 
 /// The cloth mesh named by `[cloth] mesh = file`, read, placed and checked: a face the mesh
 /// cannot be a cloth with is named by its line.
+/// `[cloth] model`, `density`, `material`, `[cloth.membrane]` and `[cloth.bending]` into `d`
+/// (after `wetness`, `mass`, `water_mass` and `dry_friction_factor` are set): a material fills
+/// every value the scene does not write, at the cloth's wetness.
+fn fabric_keys(cx: &Ctx<'_>, d: &mut ClothParams, c: &RawCloth) -> Result<(), SceneError> {
+    if let Some(m) = &c.model {
+        d.model = named(
+            cx,
+            m,
+            "cloth.model",
+            "cloth model",
+            ClothModel::ALL,
+            ClothModel::name,
+        )?;
+    }
+    if let Some(density) = &c.density {
+        if c.mass.is_some() {
+            return Err(SceneError::Invalid {
+                at: cx.at(density.span()),
+                key: "cloth.density".into(),
+                value: cx.raw(&density.span()),
+                message: "`density` (kg/m^2) and `mass` (kg) both set the cloth's mass: give one"
+                    .into(),
+            });
+        }
+        d.density = Some(*density.get_ref());
+    }
+    let membrane = c.membrane.as_ref();
+    let bending = c.bending.as_ref();
+    if let Some(name) = &c.material {
+        let Some(fabric) = wetcloth::params::materials::fabric(name.get_ref()) else {
+            return Err(SceneError::Invalid {
+                at: cx.at(name.span()),
+                key: "cloth.material".into(),
+                value: cx.raw(&name.span()),
+                message: format!(
+                    "unknown material; the measured fabrics are {}",
+                    wetcloth::params::materials::names()
+                        .iter()
+                        .map(|n| format!("\"{n}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            });
+        };
+        let w = d.wetness.clamp(0.0, 1.0);
+        d.material = Some(fabric.name.to_string());
+        if c.model.is_none() {
+            d.model = ClothModel::Membrane;
+        }
+        if c.density.is_none() && c.mass.is_none() {
+            d.density = Some(fabric.density);
+        }
+        if c.water_mass.is_none() {
+            d.water_mass = fabric.water_mass;
+        }
+        if c.dry_friction_factor.is_none() {
+            d.dry_friction_factor = fabric.dry_friction_factor;
+        }
+        d.membrane = MembraneParams {
+            warp: fabric.warp.at(w),
+            weft: fabric.weft.at(w),
+            shear: fabric.shear.at(w),
+            poisson: fabric.poisson,
+        };
+        d.bending.stiffness = fabric.bending.at(w);
+        d.bending.warp = fabric.bending_warp;
+        d.bending.weft = fabric.bending_weft;
+    }
+    if let Some(m) = membrane {
+        set(&mut d.membrane.warp, m.warp);
+        set(&mut d.membrane.weft, m.weft);
+        set(&mut d.membrane.shear, m.shear);
+        set(&mut d.membrane.poisson, m.poisson);
+    }
+    if let Some(b) = bending {
+        set(&mut d.bending.stiffness, b.stiffness);
+        set(&mut d.bending.warp, b.warp);
+        set(&mut d.bending.weft, b.weft);
+        if let Some(r) = &b.rest {
+            d.bending.rest = named(
+                cx,
+                r,
+                "cloth.bending.rest",
+                "bending rest",
+                BendingRest::ALL,
+                BendingRest::name,
+            )?;
+        }
+    }
+    Ok(())
+}
+
 fn cloth_mesh(
     cx: &Ctx<'_>,
     file: &Spanned<String>,

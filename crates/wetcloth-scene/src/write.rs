@@ -2,7 +2,7 @@
 
 use std::fmt::Write;
 use wetcloth::collide::{Cuboid, Plane, Sphere};
-use wetcloth::{GrabPick, PaintShape, Real, Shape, SimConfig, Vec3};
+use wetcloth::{ClothModel, GrabPick, PaintShape, Real, Shape, SimConfig, Vec3};
 
 /// A float in TOML: Rust's `{:?}` is the shortest text that parses back to the same `f64` and
 /// always has a `.` or an exponent, so TOML reads it as a float.
@@ -74,7 +74,24 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
         }
     }
     let _ = writeln!(o, "position = {}  # m", v3(c.position));
-    let _ = writeln!(o, "mass = {}  # kg", f(c.mass));
+    if let Some(name) = &c.material {
+        let _ = writeln!(
+            o,
+            "material = {}  # the values below are its, at the wetness",
+            quote(name)
+        );
+    }
+    if c.model != ClothModel::Springs {
+        let _ = writeln!(o, "model = {}", quote(c.model.name()));
+    }
+    match c.density {
+        Some(d) => {
+            let _ = writeln!(o, "density = {}  # kg/m^2", f(d));
+        }
+        None => {
+            let _ = writeln!(o, "mass = {}  # kg", f(c.mass));
+        }
+    }
     let _ = writeln!(
         o,
         "structural_stiffness = {}  # N/m",
@@ -91,6 +108,22 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     let _ = writeln!(o, "water_mass = {}  # kg/m^2", f(c.water_mass));
     let _ = writeln!(o, "dry_friction_factor = {}", f(c.dry_friction_factor));
     let _ = writeln!(o, "wet_adhesion = {}  # Pa", f(c.wet_adhesion));
+    if c.model == ClothModel::Membrane {
+        let m = &c.membrane;
+        let _ = writeln!(o);
+        let _ = writeln!(o, "[cloth.membrane]");
+        let _ = writeln!(o, "warp = {}  # N/m", f(m.warp));
+        let _ = writeln!(o, "weft = {}  # N/m", f(m.weft));
+        let _ = writeln!(o, "shear = {}  # N/m", f(m.shear));
+        let _ = writeln!(o, "poisson = {}", f(m.poisson));
+        let b = &c.bending;
+        let _ = writeln!(o);
+        let _ = writeln!(o, "[cloth.bending]");
+        let _ = writeln!(o, "stiffness = {}  # N m", f(b.stiffness));
+        let _ = writeln!(o, "warp = {}  # factor", f(b.warp));
+        let _ = writeln!(o, "weft = {}  # factor", f(b.weft));
+        let _ = writeln!(o, "rest = {}", quote(b.rest.name()));
+    }
     for p in &c.paint {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[cloth.paint]]");

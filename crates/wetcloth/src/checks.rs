@@ -21,7 +21,6 @@
 
 use crate::control::{Control, GrabMotion};
 use crate::error::StepError;
-use crate::forces::spring;
 use crate::math::{Real, Vec3};
 use crate::measure::Totals;
 use crate::model::Model;
@@ -225,10 +224,7 @@ pub fn mechanical_energy(model: &Model, state: &State, dt: Real) -> Real {
         .map(|k| -model.mass(k) * model.gravity.dot(state.x.get(k)))
         .sum();
     state.kinetic_energy_with(model.masses.as_deref(), model.particle_mass, dt)
-        + match &model.mesh_springs {
-            None => spring::potential_energy(&model.springs, &state.x),
-            Some(s) => s.energy(&state.x),
-        }
+        + model.elastic_energy(&state.x)
         + gravity
 }
 

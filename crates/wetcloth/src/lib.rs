@@ -91,8 +91,9 @@ pub use math::{Real, Soa, Vec3};
 pub use metrics::FrameMetrics;
 pub use model::{ClothMesh, ClothMeshError, ClothSurface, Grid, Layout, Model};
 pub use params::{
-    AirModelKind, AirParams, ClothMeshSource, ClothParams, Integrator, PaintShape, PocketSeed,
-    PressureForce, PressureSolve, SimConfig, SimulationParams, SolveBudget, WetPaint,
+    AirModelKind, AirParams, BendingParams, BendingRest, ClothMeshSource, ClothModel, ClothParams,
+    Integrator, MembraneParams, PaintShape, PocketSeed, PressureForce, PressureSolve, SimConfig,
+    SimulationParams, SolveBudget, WetPaint,
 };
 pub use sim::Simulation;
 pub use state::{Motion, State};

@@ -4,7 +4,7 @@ use crate::math::{Real, Soa};
 use crate::model::Layout;
 
 /// Column names of [`FrameMetrics::values`], in order, as in `metrics.csv` (after `frame`).
-pub const COLUMNS: [&str; 10] = [
+pub const COLUMNS: [&str; 11] = [
     "time",
     "air_volume",
     "air_pressure",
@@ -15,6 +15,7 @@ pub const COLUMNS: [&str; 10] = [
     "grab_force",
     "trapped_air",
     "pocket_count",
+    "elastic_energy",
 ];
 
 /// Measurements of one state.
@@ -30,7 +31,8 @@ pub struct FrameMetrics {
     /// `(x(t) - x(t - dt)) / dt`).
     pub kinetic_energy: Real,
     /// Largest relative elongation of a structural spring (0.1 = 10 % longer than at rest;
-    /// negative when every spring is compressed).
+    /// negative when every spring is compressed); under `model = "membrane"` the largest
+    /// principal stretch minus one of any triangle.
     pub max_stretch: Real,
     /// Fraction of particles that touched a collider during the last step, 0..1.
     pub contact_fraction: Real,
@@ -42,6 +44,9 @@ pub struct FrameMetrics {
     pub trapped_air: Real,
     /// Sealed pockets (the pockets model); 1 with the thesis' single bubble.
     pub pocket_count: Real,
+    /// Elastic energy stored in the cloth, J: its springs', or its membrane and bending
+    /// elements' (`model = "membrane"`).
+    pub elastic_energy: Real,
 }
 
 impl FrameMetrics {
@@ -88,7 +93,7 @@ impl FrameMetrics {
     }
 
     /// The values in [`COLUMNS`] order.
-    pub fn values(&self) -> [Real; 10] {
+    pub fn values(&self) -> [Real; 11] {
         [
             self.time,
             self.air_volume,
@@ -100,6 +105,7 @@ impl FrameMetrics {
             self.grab_force,
             self.trapped_air,
             self.pocket_count,
+            self.elastic_energy,
         ]
     }
 }

@@ -503,8 +503,11 @@ impl Simulation {
 
     /// Per-frame metrics of the current state (the `metrics.csv` columns).
     pub fn metrics(&self) -> FrameMetrics {
-        let (max_height, max_stretch, contact_fraction) =
+        let (max_height, mut max_stretch, contact_fraction) =
             FrameMetrics::cloth(self.model.layout(), self.positions(), &self.state.contact);
+        if let Some(f) = &self.model.fabric {
+            max_stretch = f.membrane.max_stretch(self.positions());
+        }
         FrameMetrics {
             time: self.time(),
             air_volume: self.air_volume(),
@@ -520,6 +523,7 @@ impl Simulation {
             grab_force: self.grab_force().length(),
             trapped_air: self.trapped_air(),
             pocket_count: self.pocket_count() as Real,
+            elastic_energy: self.model.elastic_energy(self.positions()),
         }
     }
 
@@ -752,27 +756,50 @@ impl Simulation {
             && (self.config.simulation.integrator == crate::params::Integrator::Verlet
                 || model.mesh.is_some())
         {
-            corrected |= strain_limit::limit_strain(
-                model.layout(),
-                state,
-                &model.inv_mass,
-                &control.held,
-                cloth.strain_limit,
-                cloth.strain_limit_iterations,
-                &colliders,
-                model.radius,
-                &mut self.strain,
-            )
+            corrected |= match &model.fabric {
+                Some(f) => strain_limit::limit_triangle_strain(
+                    &f.membrane,
+                    state,
+                    &model.inv_mass,
+                    &control.held,
+                    cloth.strain_limit,
+                    cloth.strain_limit_iterations,
+                    &colliders,
+                    model.radius,
+                    &mut self.strain,
+                ),
+                None => strain_limit::limit_strain(
+                    model.layout(),
+                    state,
+                    &model.inv_mass,
+                    &control.held,
+                    cloth.strain_limit,
+                    cloth.strain_limit_iterations,
+                    &colliders,
+                    model.radius,
+                    &mut self.strain,
+                ),
+            }
             .corrected;
             // A hand holds its particle against the limit's pull too (the springs' share is
             // in its force already).
+            // Its work over the hand's move this step is the hands' too: the energy audit
+            // counts it (the limit carries the hand's pull to the cloth beyond the springs).
+            let mut work = 0.0;
             for &(k, pull) in self.strain.pulls() {
+                let k = k as usize;
+                let moved = match &self.state.motion {
+                    crate::state::Motion::Previous(prev) => self.state.x.get(k) - prev.get(k),
+                    _ => Vec3::ZERO,
+                };
                 for g in &mut self.control.grabs {
-                    if g.particle == k as usize {
+                    if g.particle == k {
                         g.force += pull / (dt * dt);
+                        work += checks::work(pull / (dt * dt), Vec3::ZERO, moved).abs();
                     }
                 }
             }
+            self.control.hand_work += work;
         }
         corrected
     }

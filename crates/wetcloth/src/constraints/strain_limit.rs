@@ -182,6 +182,122 @@ pub fn limit_strain(
     out
 }
 
+/// Limits every membrane triangle of `membrane` (`model = "membrane"`) in `state` to a largest
+/// principal stretch of `1 + limit`, as [`limit_strain`] limits springs: each triangle over the
+/// limit has its deformation scaled back along its over-stretched principal direction about
+/// its mass-weighted centroid (about its held corners where it has any), the moves weighed by
+/// inverse masses, swept Gauss-Seidel in triangle order until every triangle is within
+/// [`TOLERANCE`] of the limit or after `max_sweeps`. What the projections pulled on the held
+/// particles is left in `scratch`.
+#[allow(clippy::too_many_arguments)] // as limit_strain
+pub fn limit_triangle_strain(
+    membrane: &crate::forces::membrane::Membrane,
+    state: &mut State,
+    inv_mass: &[Real],
+    held: &[bool],
+    limit: Real,
+    max_sweeps: usize,
+    colliders: &[Collider],
+    radius: Real,
+    scratch: &mut Scratch,
+) -> Outcome {
+    let mut out = Outcome::default();
+    let moved = &mut scratch.moved;
+    let pull = &mut scratch.pull;
+    pull.clear();
+    let cap = 1.0 + limit;
+    while out.sweeps < max_sweeps {
+        out.sweeps += 1;
+        moved.clear();
+        let mut worst: Real = 0.0;
+        for t in 0..membrane.triangles.len() {
+            let s1 = membrane.principal_stretch(&state.x, t);
+            if s1 <= cap {
+                continue;
+            }
+            worst = worst.max(s1 - 1.0);
+            let tri = membrane.triangles[t].map(|v| v as usize);
+            let g = &membrane.grad[t];
+            let p = tri.map(|v| state.x.get(v));
+            let f1 = p[0] * g[0][0] + p[1] * g[1][0] + p[2] * g[2][0];
+            let f2 = p[0] * g[0][1] + p[1] * g[1][1] + p[2] * g[2][1];
+            // Principal directions of F^T F, then the deformed ones u_k = F v_k / s_k.
+            let (a, b, c) = (f1.dot(f1), f2.dot(f2), f1.dot(f2));
+            let half = 0.5 * (a + b);
+            let r = (0.25 * (a - b) * (a - b) + c * c).sqrt();
+            let (l1, l2) = (half + r, (half - r).max(0.0));
+            let v1 = if c.abs() > 1e-300 {
+                let (x, y) = (c, l1 - a);
+                let n = x.hypot(y);
+                [x / n, y / n]
+            } else if a >= b {
+                [1.0, 0.0]
+            } else {
+                [0.0, 1.0]
+            };
+            let v2 = [-v1[1], v1[0]];
+            let scale = |l: Real| {
+                let s = l.sqrt();
+                if s > cap { cap / s } else { 1.0 }
+            };
+            let dirs = [
+                ((f1 * v1[0] + f2 * v1[1]).normalize_or_zero(), scale(l1)),
+                ((f1 * v2[0] + f2 * v2[1]).normalize_or_zero(), scale(l2)),
+            ];
+            let w = tri.map(|v| if held[v] { 0.0 } else { inv_mass[v] });
+            let held_here = tri.map(|v| held[v]);
+            let centre = if held_here.iter().any(|&h| h) {
+                let (sum, count) = (0..3)
+                    .filter(|&i| held_here[i])
+                    .fold((Vec3::ZERO, 0.0), |(s, c), i| (s + p[i], c + 1.0));
+                sum / count
+            } else {
+                let m = w.map(|w| 1.0 / w);
+                (p[0] * m[0] + p[1] * m[1] + p[2] * m[2]) / (m[0] + m[1] + m[2])
+            };
+            let mut momentum = Vec3::ZERO;
+            for i in 0..3 {
+                if w[i] == 0.0 {
+                    continue;
+                }
+                let d = p[i] - centre;
+                let mut target = centre;
+                // The component normal to the triangle's plane is none (d lies in it).
+                for &(u, k) in &dirs {
+                    target += u * (u.dot(d) * k);
+                }
+                let shift = target - p[i];
+                state.x.set(tri[i], target);
+                momentum += shift / w[i];
+                moved.push(tri[i] as u32);
+            }
+            let holders = held_here.iter().filter(|&&h| h).count();
+            if holders > 0 {
+                for i in 0..3 {
+                    if held_here[i] {
+                        pull.push((tri[i] as u32, momentum / holders as Real));
+                    }
+                }
+            }
+        }
+        out.worst = worst;
+        if moved.is_empty() {
+            break;
+        }
+        out.corrected = true;
+        for &k in moved.iter() {
+            let k = k as usize;
+            state
+                .x
+                .set(k, contact::project(colliders, state.x.get(k), radius));
+        }
+        if worst <= limit * (1.0 + TOLERANCE) {
+            break;
+        }
+    }
+    out
+}
+
 /// Largest relative stretch of a structural or shear spring of `grid` in `x` (0.1 = 10 %).
 pub fn max_stretch(layout: Layout<'_>, x: &crate::math::Soa) -> Real {
     let mut worst = Real::NEG_INFINITY;

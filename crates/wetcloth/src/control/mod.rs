@@ -26,6 +26,11 @@ pub struct Control {
     /// Summed magnitude of the work the water film's pull (the pockets model's
     /// `wet_adhesion`) has done on the cloth since t = 0, J.
     pub(crate) film_work: Real,
+    /// Summed magnitude of the work the pressure force has done on the cloth since t = 0, J,
+    /// as the explicit integrator measures it step by step (the thesis' force, along each
+    /// particle's normal, is not exactly the gradient of the bubble's volume, so its work is
+    /// not `P dV`).
+    pub(crate) air_work: Real,
 }
 
 impl Control {
@@ -39,6 +44,7 @@ impl Control {
             hand_work: 0.0,
             collider_work: 0.0,
             film_work: 0.0,
+            air_work: 0.0,
         }
     }
 
@@ -85,11 +91,17 @@ impl Control {
         self.film_work
     }
 
+    /// Summed magnitude of the work the pressure force has done on the cloth since t = 0, J,
+    /// where the explicit integrator measures it (0 otherwise).
+    pub fn air_work(&self) -> Real {
+        self.air_work
+    }
+
     /// The work done on the cloth from outside its mechanical energy since t = 0, J: the
-    /// hands', the moving colliders' and the water film's (summed magnitudes), which the
-    /// energy audit allows for.
+    /// hands', the moving colliders', the water film's and the pressure's where measured
+    /// (summed magnitudes), which the energy audit allows for.
     pub fn external_work(&self) -> Real {
-        self.hand_work + self.collider_work + self.film_work
+        self.hand_work + self.collider_work + self.film_work + self.air_work
     }
 
     /// Removes grab `index`, releasing its particle.

@@ -252,6 +252,29 @@ impl MeshSprings {
         }
     }
 
+    /// No springs, for a cloth whose membrane and bending elements carry its mechanics
+    /// (`model = "membrane"`): the mesh's edges are kept, with no stiffness, for what measures
+    /// them (the blow-up check's stretch).
+    pub fn none(mesh: &ClothMesh) -> Self {
+        let ends = mesh.edges.clone();
+        let p = |i: u32| mesh.rest[i as usize];
+        let rest = ends.iter().map(|&[a, b]| (p(b) - p(a)).length()).collect();
+        Self {
+            stiffness: vec![0.0; ends.len()],
+            edge_count: ends.len(),
+            ends,
+            rest,
+            start: vec![0; mesh.len() + 1],
+            of: Vec::new(),
+        }
+    }
+
+    /// Whether the springs carry any force (not [`MeshSprings::none`]).
+    #[inline]
+    pub fn active(&self) -> bool {
+        !self.of.is_empty()
+    }
+
     /// The springs of particle `k`, each as `2 s + e` (`e` 1 where `k` is its second end).
     #[inline]
     pub fn springs_of(&self, k: usize) -> &[u32] {
@@ -262,6 +285,10 @@ impl MeshSprings {
     /// `parallel`; each spring is computed once, in chunks whose arithmetic vectorises (the
     /// ends gathered first, then `k (l - L) / l` over the chunk).
     pub fn forces_into(&self, x: &Soa, out: &mut Vec<Vec3>, parallel: bool) {
+        if !self.active() {
+            out.clear();
+            return;
+        }
         out.resize(self.ends.len(), Vec3::ZERO);
         let chunk = |start: usize, o: &mut [Vec3]| {
             const LANE: usize = 64;

@@ -15,7 +15,10 @@
 //! the compiler vectorises them across the particles of a row. Every particle adds its terms in
 //! a fixed order, so the result does not depend on how rows are split between threads.
 
+pub mod bending;
+pub mod fabric;
 pub mod gravity;
+pub mod membrane;
 pub mod mesh_spring;
 pub mod pressure;
 pub mod spring;

@@ -32,6 +32,7 @@ use crate::air::{AirLoad, Timing};
 use crate::checks;
 use crate::collide::contact;
 use crate::control::Control;
+use crate::forces::fabric::FabricScratch;
 use crate::forces::gravity;
 use crate::forces::mesh_spring::MeshSprings;
 use crate::math::{Real, Soa, Vec3};
@@ -51,6 +52,13 @@ pub(crate) struct ImplicitMesh {
     cg: CgScratch,
     /// The springs' forces on their first ends, N.
     spring_force: Vec<Vec3>,
+    /// The membrane and bending elements' forces (`model = "membrane"`).
+    fabric: FabricScratch,
+    /// For each triangle, where its corners' blocks `(i, j)` are in `a.val` (`model =
+    /// "membrane"`).
+    tri_slots: Vec<[[u32; 3]; 3]>,
+    /// For each hinge, where its vertices' blocks are in `a.val`.
+    hinge_slots: Vec<[[u32; 4]; 4]>,
     budget: Option<SolveBudget>,
     rhs: Soa,
     v: Soa,
@@ -90,7 +98,32 @@ impl ImplicitMesh {
             return Self::default();
         };
         let n = model.len();
-        let a = BlockCsr::pattern(n, springs.ends.iter().copied());
+        let a = match &model.fabric {
+            // Every pair of a triangle's corners, and the two vertices across each edge.
+            Some(_) => {
+                let mesh = model.mesh.as_deref().expect("a mesh cloth's mesh");
+                BlockCsr::pattern(n, mesh.edges.iter().chain(&mesh.across).copied())
+            }
+            None => BlockCsr::pattern(n, springs.ends.iter().copied()),
+        };
+        let find =
+            |a: &BlockCsr, p: u32, q: u32| a.find(p as usize, q as usize).unwrap_or(0) as u32;
+        let (tri_slots, hinge_slots) = match &model.fabric {
+            Some(f) => (
+                f.membrane
+                    .triangles
+                    .iter()
+                    .map(|t| t.map(|p| t.map(|q| find(&a, p, q))))
+                    .collect(),
+                f.bending.as_ref().map_or(Vec::new(), |b| {
+                    b.hinges
+                        .iter()
+                        .map(|h| h.map(|p| h.map(|q| find(&a, p, q))))
+                        .collect()
+                }),
+            ),
+            None => (Vec::new(), Vec::new()),
+        };
         let slots = springs
             .ends
             .iter()
@@ -110,6 +143,9 @@ impl ImplicitMesh {
             pre,
             cg: CgScratch::default(),
             spring_force: Vec::new(),
+            fabric: FabricScratch::default(),
+            tri_slots,
+            hinge_slots,
             budget: Some(budget),
             rhs: Soa::zeros(n),
             v: Soa::zeros(n),
@@ -133,6 +169,9 @@ impl ImplicitMesh {
             + self.pre.heap_bytes()
             + self.cg.heap_bytes()
             + self.spring_force.capacity() * 24
+            + self.fabric.heap_bytes()
+            + self.tri_slots.capacity() * 36
+            + self.hinge_slots.capacity() * 64
             + [
                 &self.rhs,
                 &self.v,
@@ -181,7 +220,12 @@ impl ImplicitMesh {
             *v = DMat3::ZERO;
         }
         let dt2 = dt * dt;
-        for (s, &[p, q]) in springs.ends.iter().enumerate() {
+        let active = if springs.active() {
+            springs.ends.len()
+        } else {
+            0
+        };
+        for (s, &[p, q]) in springs.ends[..active].iter().enumerate() {
             let d = x.get(q as usize) - x.get(p as usize);
             let l = d.length();
             if l == 0.0 {
@@ -197,6 +241,34 @@ impl ImplicitMesh {
             self.a.val[qp as usize] -= h;
             self.a.val[self.a.diag[p as usize] as usize] += h;
             self.a.val[self.a.diag[q as usize] as usize] += h;
+        }
+        if let Some(fabric) = &model.fabric {
+            for (t, slots) in self.tri_slots.iter().enumerate() {
+                let h = fabric.membrane.hessian(x, t);
+                for i in 0..3 {
+                    for j in 0..3 {
+                        self.a.val[slots[i][j] as usize] += h[i][j] * dt2;
+                    }
+                }
+            }
+            if let Some(b) = &fabric.bending {
+                // The Gauss-Newton term k grad theta grad theta^T of each hinge.
+                for (h, slots) in self.hinge_slots.iter().enumerate() {
+                    let k = b.hinge_stiffness[h] * dt2;
+                    if k == 0.0 {
+                        continue;
+                    }
+                    let g = self.fabric.angles[h].1;
+                    for i in 0..4 {
+                        let gi = g[i] * k;
+                        for j in 0..4 {
+                            let gj = g[j];
+                            self.a.val[slots[i][j] as usize] +=
+                                DMat3::from_cols(gi * gj.x, gi * gj.y, gi * gj.z);
+                        }
+                    }
+                }
+            }
         }
         let damp = 1.0 + dt * model.damping;
         for k in 0..model.len() {
@@ -229,9 +301,15 @@ impl ImplicitMesh {
         let law = model.pressure_force;
         // Forces at the step's start: gravity, springs (damping is in the matrix).
         springs.forces_into(x, &mut self.spring_force, parallel);
+        if let Some(fabric) = &model.fabric {
+            fabric.forces_into(x, &mut self.fabric, parallel);
+        }
         for k in 0..n {
-            let f = gravity::weight_and_damping(model.mass(k), model.gravity, 0.0, Vec3::ZERO)
+            let mut f = gravity::weight_and_damping(model.mass(k), model.gravity, 0.0, Vec3::ZERO)
                 + springs.gather(&self.spring_force, k);
+            if let Some(fabric) = &model.fabric {
+                f += fabric.gather(&self.fabric, k);
+            }
             self.force.set(k, f);
             self.per_pascal.set(k, pressure_per_pascal(mesh, law, x, k));
         }

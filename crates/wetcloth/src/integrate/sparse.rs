@@ -124,8 +124,12 @@ fn invert(b: DMat3) -> DMat3 {
     if det.is_finite() && det.abs() > 1e-300 {
         b.inverse()
     } else {
+        // A singular block: its diagonal's inverse where it is positive, none where it is not
+        // (a coarse aggregate of known particles only has no unknowns: a huge inverse there
+        // would turn round-off into an infinite correction).
         let d = Vec3::new(b.x_axis.x, b.y_axis.y, b.z_axis.z);
-        DMat3::from_diagonal(Vec3::ONE / d.max(Vec3::splat(1e-300)))
+        let inv = |v: Real| if v > 1e-300 { 1.0 / v } else { 0.0 };
+        DMat3::from_diagonal(Vec3::new(inv(d.x), inv(d.y), inv(d.z)))
     }
 }
 

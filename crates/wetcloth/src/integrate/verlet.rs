@@ -85,6 +85,9 @@ struct StepConsts<'a> {
     /// Summed magnitude of the moving colliders' work on the cloth during the step, pJ (an
     /// integer, so the sum does not depend on the order the threads add in).
     collider_work: &'a std::sync::atomic::AtomicU64,
+    /// Summed magnitude of the pressure force's work during the step, pJ, row by row (an
+    /// integer, as `collider_work`).
+    air_work: &'a std::sync::atomic::AtomicU64,
     mass: Real,
     gravity: Vec3,
     /// `damping * m / dt`, kg/s^2: the damping force is `-damp * (x - x_prev)`.
@@ -192,6 +195,7 @@ impl Verlet {
             .map(|c| contact::Frames::of(c, t, dt))
             .collect();
         let collider_work = std::sync::atomic::AtomicU64::new(0);
+        let air_work = std::sync::atomic::AtomicU64::new(0);
         let mut consts = StepConsts {
             grid,
             planes: &model.planes,
@@ -199,6 +203,7 @@ impl Verlet {
             moving: &model.moving,
             frames: &frames,
             collider_work: &collider_work,
+            air_work: &air_work,
             mass,
             gravity: model.gravity,
             damp: model.damping * mass / dt,
@@ -318,6 +323,7 @@ impl Verlet {
         }
         control.hand_work += work;
         control.collider_work += collider_work.into_inner() as Real * 1e-12;
+        control.air_work += air_work.into_inner() as Real * 1e-12;
         // The measures of the cells around the particles the hand moved.
         for (k, _) in control.active() {
             let j = k / nx;
@@ -498,7 +504,22 @@ fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, scratch: &mut RowP
         match c.masses {
             None => {
                 add_pressure(c, j, x, f, 1.0);
+                // The move before the pressure is kept, so that the pressure's work can be
+                // measured from what it added to it.
+                if c.pressure != 0.0 {
+                    keep_row(&mut scratch.pressure, next.as_ref());
+                }
                 add_pressure(c, j, x, next, c.step_per_force);
+                if c.pressure != 0.0 {
+                    // The pressure's move, as a force: what it added over dt^2 / m.
+                    let nx = c.grid.nx;
+                    let [tx, ty, tz] = &mut scratch.pressure;
+                    for i in 0..nx {
+                        tx[i] = (next.x[i] - tx[i]) / c.step_per_force;
+                        ty[i] = (next.y[i] - ty[i]) / c.step_per_force;
+                        tz[i] = (next.z[i] - tz[i]) / c.step_per_force;
+                    }
+                }
             }
             Some(m) => {
                 // The pressure force alone in the row scratch, then into the forces and, times
@@ -527,6 +548,27 @@ fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, scratch: &mut RowP
             }
         }
         contact_row(c, j, here, next, contact);
+        if c.pressure != 0.0 {
+            // The pressure force is in the row scratch: its work over the whole move.
+            let nx = c.grid.nx;
+            let [tx, ty, tz] = &scratch.pressure;
+            let force = RowRef {
+                x: &tx[..nx],
+                y: &ty[..nx],
+                z: &tz[..nx],
+            };
+            let mut w = 0.0;
+            for i in 0..nx {
+                w += force.x[i] * (next.x[i] - here.x[i])
+                    + force.y[i] * (next.y[i] - here.y[i])
+                    + force.z[i] * (next.z[i] - here.z[i]);
+            }
+            let pj = (w.abs() * 1e12).round();
+            if pj.is_finite() && pj > 0.0 {
+                c.air_work
+                    .fetch_add(pj as u64, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
     })
 }
 
@@ -629,7 +671,7 @@ fn step_row(
     prev: &mut RowMut<'_>,
     force: &mut RowMut<'_>,
     contact: &mut [bool],
-    springs: &RowPair,
+    springs: &mut RowPair,
 ) {
     let (nx, nz) = (c.grid.nx, c.grid.nz);
     let here = row(x, nx, j);
@@ -638,11 +680,62 @@ fn step_row(
     set_weight_and_damping(c, j, here, prev.as_ref(), force);
     spring::add_row(force, &springs.current, &springs.previous, j, nx, nz);
 
-    // Pressure force (eq. 3.7): (P_b - P_a) S N.
+    // Pressure force (eq. 3.7): (P_b - P_a) S N; the forces before it are kept in the row
+    // scratch, so that its work can be measured.
+    let acts = c.pressure != 0.0;
+    if acts {
+        keep_row(&mut springs.pressure, force.as_ref());
+    }
     add_pressure(c, j, x, force, 1.0);
 
     verlet_move(c, j, here, prev, force.as_ref());
     contact_row(c, j, here, prev, contact);
+    if acts {
+        // The pressure force is what it added to the forces.
+        add_air_work(
+            c,
+            &springs.pressure,
+            force.as_ref(),
+            1.0,
+            here,
+            prev.as_ref(),
+        );
+    }
+}
+
+/// Copies `row` into the scratch `keep`.
+#[inline(always)]
+fn keep_row(keep: &mut [Vec<Real>; 3], row: RowRef<'_>) {
+    let n = row.x.len();
+    keep[0][..n].copy_from_slice(row.x);
+    keep[1][..n].copy_from_slice(row.y);
+    keep[2][..n].copy_from_slice(row.z);
+}
+
+/// Adds the magnitude of the pressure force's work over a row's move from `here` to `next` to
+/// `c.air_work` (pJ): the force is `(after - before) / scale` (N; `before` the row as kept
+/// before the pressure was added, `after` with it).
+#[inline(always)]
+fn add_air_work(
+    c: &StepConsts<'_>,
+    before: &[Vec<Real>; 3],
+    after: RowRef<'_>,
+    scale: Real,
+    here: RowRef<'_>,
+    next: RowRef<'_>,
+) {
+    let n = here.x.len();
+    let mut w = 0.0;
+    for i in 0..n {
+        w += (after.x[i] - before[0][i]) * (next.x[i] - here.x[i])
+            + (after.y[i] - before[1][i]) * (next.y[i] - here.y[i])
+            + (after.z[i] - before[2][i]) * (next.z[i] - here.z[i]);
+    }
+    let pj = (w.abs() / scale * 1e12).round();
+    if pj.is_finite() && pj > 0.0 {
+        c.air_work
+            .fetch_add(pj as u64, std::sync::atomic::Ordering::Relaxed);
+    }
 }
 
 /// Starts row `j`'s forces with gravity and damping: [`gravity::set_row`] for the uniform

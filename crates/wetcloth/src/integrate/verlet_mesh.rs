@@ -13,6 +13,7 @@ use crate::checks;
 use crate::collide::contact;
 use crate::collide::plane;
 use crate::control::Control;
+use crate::forces::fabric::FabricScratch;
 use crate::forces::gravity;
 use crate::forces::mesh_spring::MeshSprings;
 use crate::math::{Real, RowMut, Soa, Vec3, row};
@@ -34,6 +35,8 @@ pub(crate) struct MeshVerlet {
     pressure: Soa,
     /// Each spring's force on its first end, N.
     spring_force: Vec<Vec3>,
+    /// The membrane and bending elements' forces (`model = "membrane"`).
+    fabric: FabricScratch,
     /// The grabbed particles' previous positions, m.
     saved_prev: Vec<Vec3>,
     /// The measures of the coasting positions.
@@ -163,6 +166,7 @@ impl MeshVerlet {
             force: Soa::zeros(n),
             pressure: Soa::zeros(n),
             spring_force: Vec::new(),
+            fabric: FabricScratch::default(),
             saved_prev: Vec::new(),
             coast: Measures::for_layout(layout, false),
         }
@@ -173,6 +177,7 @@ impl MeshVerlet {
         self.force.heap_bytes()
             + self.pressure.heap_bytes()
             + self.spring_force.capacity() * 24
+            + self.fabric.heap_bytes()
             + self.saved_prev.capacity() * 24
             + self.coast.heap_bytes()
     }
@@ -213,13 +218,22 @@ impl MeshVerlet {
         let law = model.pressure_force;
         // Every force but the pressure (gravity and damping, eq. 3.3; springs, eq. 3.6).
         springs.forces_into(x, &mut self.spring_force, parallel);
+        if let Some(fabric) = &model.fabric {
+            fabric.forces_into(x, &mut self.fabric, parallel);
+        }
         {
             let prev: &Soa = prev;
             let sf = &self.spring_force;
+            let (fabric, fs) = (model.fabric.as_deref(), &self.fabric);
             for_each(&mut self.force, parallel, |k| {
                 let v = x.get(k) - prev.get(k);
-                gravity::weight_and_damping(model.mass(k), model.gravity, damping_per_dt, v)
-                    + springs.gather(sf, k)
+                let f =
+                    gravity::weight_and_damping(model.mass(k), model.gravity, damping_per_dt, v)
+                        + springs.gather(sf, k);
+                match fabric {
+                    Some(fabric) => f + fabric.gather(fs, k),
+                    None => f,
+                }
             });
         }
         // The pressure (eq. 3.7): of the step's start, or of its end from the coasting
@@ -241,10 +255,12 @@ impl MeshVerlet {
                 }
             });
         };
+        let mut pressure_acts = true;
         match air.timing {
             Timing::Now => {
                 let (p, each) = load_of(&air);
                 let acts = p != 0.0 || each.is_some();
+                pressure_acts = acts;
                 if acts {
                     pressure_now(&mut self.pressure, p, each);
                 }
@@ -286,6 +302,14 @@ impl MeshVerlet {
         control.collider_work += resolve_contacts(model, x, prev, &mut state.contact, &frames, dt2);
         let p = prev;
         std::mem::swap(&mut state.x, p);
+        if pressure_acts {
+            // The pressure force's work over the step's moves (its share of the energy audit).
+            let mut w = 0.0;
+            for k in 0..n {
+                w += self.pressure.get(k).dot(state.x.get(k) - p.get(k));
+            }
+            control.air_work += (w.abs() * 1e12).round() * 1e-12;
+        }
         // The hand (thesis 3.2 step 3).
         let mut hand = 0.0;
         for (g, (target, before)) in control

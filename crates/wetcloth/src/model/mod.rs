@@ -11,7 +11,11 @@ pub use cloth_mesh::{ClothMesh, ClothMeshError, MAX_MESH_PARTICLES};
 pub use grid::{Grid, Neighbour, STENCIL};
 pub use surface::ClothSurface;
 
+use crate::forces::bending::Rigidity;
+use crate::forces::fabric::Fabric;
+use crate::forces::membrane::Orthotropic;
 use crate::forces::mesh_spring::MeshSprings;
+use crate::params::{BendingRest, ClothModel, ClothParams};
 use std::sync::Arc;
 
 use crate::collide::Collider;
@@ -51,7 +55,10 @@ pub struct Model {
     /// built-in grid, whose passes read [`Model::grid`].
     pub mesh: Option<Arc<ClothMesh>>,
     /// The springs of a mesh cloth (its edges and across its edges); `None` on the grid.
+    /// Under `model = "membrane"` they have no stiffness ([`MeshSprings::none`]).
     pub mesh_springs: Option<Arc<MeshSprings>>,
+    /// The membrane and bending elements of `model = "membrane"`; `None` for the springs.
+    pub fabric: Option<Arc<Fabric>>,
     /// Each particle's area S, m^2, where particles differ (a mesh cloth: a third of each
     /// triangle around it); `None` when every particle has [`Model::area_per_particle`].
     pub areas: Option<Vec<Real>>,
@@ -116,7 +123,15 @@ impl Model {
     /// valid [`ClothMesh`] (`SimConfig::validate` checks it).
     pub fn new(config: &SimConfig) -> Self {
         let cloth = &config.cloth;
+        let membrane = cloth.model == ClothModel::Membrane;
         let (grid, mesh) = match &cloth.mesh {
+            None if membrane => {
+                // The membrane takes the grid's triangles: the grid as a mesh.
+                let g = Grid::new(cloth);
+                let rest = g.rest_positions(cloth.position).to_vec3();
+                let mesh = ClothMesh::new(rest, g.triangles()).expect("the grid's triangles");
+                (None, Some(Arc::new(mesh)))
+            }
             None => (Some(Grid::new(cloth)), None),
             Some(src) => {
                 let (triangles, _) = src.triangles();
@@ -132,6 +147,8 @@ impl Model {
             None => cloth.size[0] * cloth.size[1],
             Some(m) => m.total_area(),
         };
+        // The dry cloth's mass, kg: `mass`, or `density` times the rest area.
+        let cloth_mass = cloth.density.map_or(cloth.mass, |d| d * cloth_area);
         let radius = cloth.particle_radius();
         let area_per_particle = cloth_area / n as Real;
         let areas = mesh.as_ref().map(|m| m.area.clone());
@@ -149,15 +166,15 @@ impl Model {
         let uniform = cloth.uniformly_wet();
         // The dry cloth's mass: equal shares on the grid (the thesis), by area on a mesh.
         let dry_share = |k: usize| match &areas {
-            None => cloth.mass / n as Real,
-            Some(a) => cloth.mass * a[k] / cloth_area,
+            None => cloth_mass / n as Real,
+            Some(a) => cloth_mass * a[k] / cloth_area,
         };
         let area_of = |k: usize| areas.as_ref().map_or(area_per_particle, |a| a[k]);
         let water = |k: usize, w: Real| cloth.water_mass * w * area_of(k);
         let particle_mass = if cloth.water_mass > 0.0 && uniform {
-            cloth.mass / n as Real + cloth.water_mass * cloth.wetness * area_per_particle
+            cloth_mass / n as Real + cloth.water_mass * cloth.wetness * area_per_particle
         } else {
-            cloth.mass / n as Real
+            cloth_mass / n as Real
         };
         let masses = ((cloth.water_mass > 0.0 && !uniform) || areas.is_some()).then(|| {
             wetness
@@ -174,12 +191,16 @@ impl Model {
         let friction_scale = (f != 1.0 && wetness.iter().any(|&w| w != 1.0))
             .then(|| wetness.iter().map(|&w| f + (1.0 - f) * w).collect());
         let mesh_springs = mesh.as_ref().map(|m| {
-            Arc::new(MeshSprings::new(
-                m,
-                cloth.structural_stiffness,
-                cloth.shear_stiffness,
-            ))
+            Arc::new(if membrane {
+                MeshSprings::none(m)
+            } else {
+                MeshSprings::new(m, cloth.structural_stiffness, cloth.shear_stiffness)
+            })
         });
+        let fabric = match (&mesh, membrane) {
+            (Some(m), true) => Some(Arc::new(fabric_of(cloth, m))),
+            _ => None,
+        };
         let springs = match &grid {
             Some(grid) => SpringConsts {
                 nx: grid.nx,
@@ -260,6 +281,7 @@ impl Model {
             grid,
             mesh,
             mesh_springs,
+            fabric,
         }
     }
 
@@ -371,5 +393,54 @@ impl Model {
             + self.areas.as_ref().map_or(0, |a| a.capacity() * 8)
             + self.mesh.as_ref().map_or(0, |m| m.heap_bytes())
             + self.mesh_springs.as_ref().map_or(0, |s| s.heap_bytes())
+            + self.fabric.as_ref().map_or(0, |f| f.heap_bytes())
     }
+
+    /// The elastic energy stored at positions `x`, J: the springs', or the membrane and bending
+    /// elements'.
+    pub fn elastic_energy(&self, x: &Soa) -> Real {
+        match (&self.fabric, &self.mesh_springs) {
+            (Some(f), _) => f.energy(x),
+            (None, Some(s)) => s.energy(x),
+            (None, None) => crate::forces::spring::potential_energy(&self.springs, x),
+        }
+    }
+}
+
+/// The membrane and bending elements of `cloth` on `mesh`: each triangle's warp along its
+/// texture coordinates' `dX/du` where the mesh has them, else along the scene's x axis.
+fn fabric_of(cloth: &ClothParams, mesh: &ClothMesh) -> Fabric {
+    let uvs = cloth.mesh.as_ref().and_then(|m| m.triangle_uvs());
+    let warp: Vec<Vec3> = mesh
+        .triangles
+        .iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let Some(uv) = uvs.as_ref().and_then(|u| u.get(t)) else {
+                return Vec3::X;
+            };
+            let p = tri.map(|v| mesh.rest[v as usize]);
+            let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+            let (du1, dv1) = (uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]);
+            let (du2, dv2) = (uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]);
+            let det = du1 * dv2 - du2 * dv1;
+            if det.abs() <= Real::EPSILON * (du1.abs() + du2.abs()) * (dv1.abs() + dv2.abs()) {
+                return Vec3::X;
+            }
+            // dX/du: the first column of [e1 e2] [[du1, du2], [dv1, dv2]]^-1.
+            (e1 * dv2 - e2 * dv1) / det
+        })
+        .collect();
+    let m = &cloth.membrane;
+    let b = &cloth.bending;
+    Fabric::new(
+        mesh,
+        &warp,
+        Orthotropic::new(m.warp, m.weft, m.shear, m.poisson),
+        Rigidity {
+            warp: b.stiffness * b.warp,
+            weft: b.stiffness * b.weft,
+        },
+        b.rest == BendingRest::Flat,
+    )
 }

@@ -66,6 +66,125 @@ pub struct ClothParams {
     /// A cloth of any shape (`[cloth] mesh`): the triangle or polygon mesh it is, placed by
     /// `position`; `None` (the default) for the built-in grid of `size` and `resolution`.
     pub mesh: Option<ClothMeshSource>,
+    /// The cloth's mechanics (`[cloth] model`): the thesis' springs (the default) or membrane
+    /// and bending elements on its triangles.
+    pub model: ClothModel,
+    /// The membrane of `model = "membrane"` (`[cloth.membrane]`).
+    pub membrane: MembraneParams,
+    /// The bending of `model = "membrane"` (`[cloth.bending]`).
+    pub bending: BendingParams,
+    /// Areal density of the dry cloth, kg/m^2 (`[cloth] density`): when given, the cloth's
+    /// mass is `density` times its rest area and `mass` is not used. Default none; range
+    /// [1e-6, 1e3].
+    pub density: Option<Real>,
+    /// The measured fabric the cloth's values came from (`[cloth] material`), if any: the scene
+    /// reader fills `model`, `density`, `membrane`, `bending`, `water_mass` and
+    /// `dry_friction_factor` from its table ([`crate::params::materials`]) at the cloth's
+    /// wetness, except the keys the scene writes.
+    pub material: Option<String>,
+}
+
+/// The cloth's mechanics (`[cloth] model`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ClothModel {
+    /// The thesis' springs (eq. 3.6): structural and shear on the grid, along and across the
+    /// edges of a mesh (`"springs"`, the default). Equal masses on the grid, lumped by area on a
+    /// mesh.
+    #[default]
+    Springs,
+    /// An orthotropic membrane element per triangle and a bending element per interior edge
+    /// (`"membrane"`), on the grid's triangles or a mesh's; mass lumped by area.
+    Membrane,
+}
+
+impl ClothModel {
+    /// Every model, in the order the docs list them.
+    pub const ALL: [ClothModel; 2] = [ClothModel::Springs, ClothModel::Membrane];
+
+    /// The scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            ClothModel::Springs => "springs",
+            ClothModel::Membrane => "membrane",
+        }
+    }
+}
+
+/// The membrane of `model = "membrane"` (`[cloth.membrane]`): an orthotropic sheet whose axes
+/// are the fabric's warp and weft.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MembraneParams {
+    /// Tension per unit width per unit strain along the warp with the weft free, N/m. Default
+    /// 600; range (0, 1e7].
+    pub warp: Real,
+    /// The same along the weft, N/m. Default 600; range (0, 1e7].
+    pub weft: Real,
+    /// Shear force per unit length per unit engineering shear strain, N/m. Default 125; range
+    /// (0, 1e7].
+    pub shear: Real,
+    /// Lateral contraction of the weft per unit warp strain (Poisson's ratio nu12). Default 0;
+    /// range [0, 0.5), and `poisson^2 weft / warp < 1`.
+    pub poisson: Real,
+}
+
+impl Default for MembraneParams {
+    fn default() -> Self {
+        Self {
+            warp: 600.0,
+            weft: 600.0,
+            shear: 125.0,
+            poisson: 0.0,
+        }
+    }
+}
+
+/// The bending of `model = "membrane"` (`[cloth.bending]`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BendingParams {
+    /// Bending rigidity B, N m: the moment per unit width per unit curvature of a narrow strip
+    /// (textile testing's B). Default 0 (none, as the thesis' springs); range [0, 1].
+    pub stiffness: Real,
+    /// B's factor for curvature along the warp. Default 1; range [0, 1e3].
+    pub warp: Real,
+    /// B's factor for curvature along the weft. Default 1; range [0, 1e3].
+    pub weft: Real,
+    /// The rest curvature: the rest mesh's own (the default; flat for the grid) or flat.
+    pub rest: BendingRest,
+}
+
+impl Default for BendingParams {
+    fn default() -> Self {
+        Self {
+            stiffness: 0.0,
+            warp: 1.0,
+            weft: 1.0,
+            rest: BendingRest::Mesh,
+        }
+    }
+}
+
+/// The rest curvature of the bending elements (`[cloth.bending] rest`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BendingRest {
+    /// The rest mesh's own dihedral angles (`"mesh"`): a garment modelled curved keeps its
+    /// shape. The default.
+    #[default]
+    Mesh,
+    /// Flat (`"flat"`).
+    Flat,
+}
+
+impl BendingRest {
+    /// Every value, in the order the docs list them.
+    pub const ALL: [BendingRest; 2] = [BendingRest::Mesh, BendingRest::Flat];
+
+    /// The scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            BendingRest::Mesh => "mesh",
+            BendingRest::Flat => "flat",
+        }
+    }
 }
 
 /// A cloth read from a mesh file (`[cloth] mesh = "towel.obj"`, with `rotation`, `scale` and
@@ -123,6 +242,32 @@ impl ClothMeshSource {
             }
         }
         (t, from)
+    }
+}
+
+impl ClothMeshSource {
+    /// Each physics triangle's texture coordinates corner by corner (as [`Self::triangles`]
+    /// orders them), when every face has them.
+    pub fn triangle_uvs(&self) -> Option<Vec<[[Real; 2]; 3]>> {
+        if self.face_uvs.len() != self.faces.len() || self.uvs.is_empty() {
+            return None;
+        }
+        let mut out = Vec::new();
+        for (f, fu) in self.faces.iter().zip(self.face_uvs.iter()) {
+            if fu.len() != f.len() {
+                return None;
+            }
+            let uv = |i: usize| self.uvs.get(fu[i] as usize).copied();
+            for k in 1..f.len().saturating_sub(1) {
+                let (a, b, c) = (uv(0)?, uv(k)?, uv(k + 1)?);
+                out.push(if self.flip_normals {
+                    [a, c, b]
+                } else {
+                    [a, b, c]
+                });
+            }
+        }
+        Some(out)
     }
 }
 
@@ -198,6 +343,11 @@ impl Default for ClothParams {
             dry_friction_factor: 1.0,
             wet_adhesion: 300.0,
             mesh: None,
+            model: ClothModel::Springs,
+            membrane: MembraneParams::default(),
+            bending: BendingParams::default(),
+            density: None,
+            material: None,
         }
     }
 }

@@ -17,11 +17,15 @@
 
 mod air;
 mod cloth;
+pub mod materials;
 mod simulation;
 mod stability;
 
 pub use air::{AirModelKind, AirParams, PocketSeed, PressureForce, PressureSolve};
-pub use cloth::{ClothMeshSource, ClothParams, PaintShape, WetPaint};
+pub use cloth::{
+    BendingParams, BendingRest, ClothMeshSource, ClothModel, ClothParams, MembraneParams,
+    PaintShape, WetPaint,
+};
 pub use simulation::{Integrator, SimulationParams, SolveBudget};
 
 use crate::collide::Collider;
@@ -181,6 +185,45 @@ impl SimConfig {
                     }
                 }
             }
+        }
+        let mb = &c.membrane;
+        check_open_low("cloth.membrane.warp", mb.warp, 0.0, 1e7)?;
+        check_open_low("cloth.membrane.weft", mb.weft, 0.0, 1e7)?;
+        check_open_low("cloth.membrane.shear", mb.shear, 0.0, 1e7)?;
+        if !(mb.poisson >= 0.0 && mb.poisson < 0.5) {
+            return Err(ConfigError::OutOfRange {
+                key: "cloth.membrane.poisson".into(),
+                value: crate::math::num(mb.poisson),
+                range: "[0, 0.5)".into(),
+            });
+        }
+        if mb.poisson * mb.poisson * mb.weft / mb.warp >= 1.0 {
+            return Err(ConfigError::Invalid {
+                key: "cloth.membrane.poisson".into(),
+                message: format!(
+                    "poisson^2 weft / warp = {} must be below 1 for the membrane to be stable \
+                     (poisson {}, weft {} N/m, warp {} N/m)",
+                    crate::math::num(mb.poisson * mb.poisson * mb.weft / mb.warp),
+                    crate::math::num(mb.poisson),
+                    crate::math::num(mb.weft),
+                    crate::math::num(mb.warp)
+                ),
+            });
+        }
+        let bd = &c.bending;
+        check_range("cloth.bending.stiffness", bd.stiffness, 0.0, 1.0)?;
+        check_range("cloth.bending.warp", bd.warp, 0.0, 1e3)?;
+        check_range("cloth.bending.weft", bd.weft, 0.0, 1e3)?;
+        if let Some(d) = c.density {
+            check_range("cloth.density", d, 1e-6, 1e3)?;
+        }
+        if c.model == ClothModel::Membrane && c.mesh.is_none() && !self.air.pockets.is_empty() {
+            return Err(ConfigError::Invalid {
+                key: "air.pocket".into(),
+                message: "seeded pockets ([[air.pocket]]) take the springs model's grid; with \
+                          model = \"membrane\" the pockets form where the wet cloth seals"
+                    .into(),
+            });
         }
         if let Some(m) = &c.mesh {
             if !self.air.pockets.is_empty() {
