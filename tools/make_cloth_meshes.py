@@ -165,6 +165,16 @@ def main(argv):
         f,
         "a round tablecloth of 60 cm radius (tools/make_cloth_meshes.py)",
     )
+    v, f, t = round_tablecloth(radius=0.15, rings=24, inner=6)
+    check_up(v, f)
+    write_obj(
+        root / "cusick-disc.obj",
+        v,
+        f,
+        t,
+        f,
+        "a 30 cm disc for the Cusick drape test (tools/make_cloth_meshes.py)",
+    )
 
 
 if __name__ == "__main__":
