@@ -380,6 +380,10 @@ block.scale = (0.06, 0.04, 0.06)
 block.rotation_euler.z = math.radians(20.0)
 ball = collider(uv_sphere(hole, "Ball", 0.035, (-0.07, 0.03, 0.035)), "MESH")
 err = with_scene(hole, "bake")
+check(err is not None and "Drape" in err and hole.wetcloth.last_error_key == "cache_dir",
+      f"Hole: a cache folder another scene uses is refused: {err}")
+hole.wetcloth.cache_dir = "//wetcloth_cache_hole/"
+err = with_scene(hole, "bake")
 check(err is None, f"Hole: bake: {err or hole.wetcloth.status}")
 hdir = cache_dir(hole)
 sc = read_scene_toml(hole)

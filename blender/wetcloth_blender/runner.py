@@ -12,6 +12,7 @@ on the main thread, or the blocking loop in background mode); ``cancel`` may be 
 thread.
 """
 
+import atexit
 import json
 import os
 import re
@@ -114,6 +115,10 @@ def stop_all():
         except subprocess.TimeoutExpired:
             job.proc.kill()
     _jobs.clear()
+
+
+# A run still going when Blender quits is stopped (after a whole frame, resumable), not orphaned.
+atexit.register(stop_all)
 
 
 def start(scene, cache_dir, mode, record):

@@ -92,6 +92,24 @@ def cache_dir(scene):
     return os.path.normpath(bpy.path.abspath(raw))
 
 
+def check_cache_dir_unshared(scene, folder):
+    """Refuses a cache folder that another scene of the file with a cloth also uses: each bake
+    replaces the folder's run and cache, which the other scene's cloth would then play."""
+    for other in bpy.data.scenes:
+        if other == scene or not any(o.wetcloth.role == "CLOTH" for o in other.objects):
+            continue
+        try:
+            theirs = cache_dir(other)
+        except ExportError:
+            continue
+        if theirs == folder:
+            raise ExportError(
+                f"The scene {other.name!r} uses the same cache folder ({folder}): give this scene its own "
+                f"(Cache Folder), e.g. //wetcloth_cache_{scene_name(scene)}/",
+                key="cache_dir",
+            )
+
+
 def frame_rate(scene):
     return scene.render.fps / scene.render.fps_base
 
@@ -265,6 +283,7 @@ def export(context, scene=None):
     cloth = find_cloth(scene)
     s = cloth.wetcloth
     folder = cache_dir(scene)
+    check_cache_dir_unshared(scene, folder)
     os.makedirs(os.path.join(folder, "colliders"), exist_ok=True)
     fps = frame_rate(scene)
     fs, fe = scene.frame_start, scene.frame_end
