@@ -284,8 +284,8 @@ keyframes(hand, [1, 25], location=[tuple(corner), tuple(corner + type(corner)((0
 h = cloth.wetcloth.hands.add()
 h.vertex_group, h.target = "hand", hand
 sphere = collider(uv_sphere(drape, "Sphere", 0.06, (0.0, 0.0, 0.04)), "SPHERE", friction=0.5)
-box = collider(cube(drape, "Cube", 0.06, (0.08, 0.07, 0.03)), "MESH", friction=0.8, sticky=False)
-keyframes(box, [1, 25], location=[(0.08, 0.07, 0.03), (0.08, 0.07, 0.05)],
+box = collider(cube(drape, "Cube", 0.06, (0.08, 0.07, 0.05)), "MESH", friction=0.8, sticky=False)
+keyframes(box, [1, 25], location=[(0.08, 0.07, 0.05), (0.08, 0.07, 0.07)],
           rotation_euler=[(0.0, 0.0, 0.0), (0.0, 0.0, math.radians(30.0))])
 ground = bpy.data.objects.new("Ground", bpy.data.meshes.new("Ground"))
 link(drape, ground)
@@ -308,6 +308,22 @@ frames = drape.frame_end - drape.frame_start + 1
 check(info["frames"] == frames, f"Drape: {frames} Blender frames are {info['frames']} wetcloth frames")
 for k in (0, frames // 2, frames - 1):
     compare(drape, cloth, ind, k)
+# The colliders act where Blender has them: at every compared frame no cloth vertex is inside
+# the sphere or the moving, turning cube as Blender poses them (to a tenth of a millimetre), and
+# the cloth rests on both.
+for k in (frames // 2, frames - 1):
+    cloth_pts = evaluated_world(drape, cloth, drape.frame_start + k)
+    centre = world_matrix(drape, sphere, drape.frame_start + k).translation
+    gaps = [(type(centre)(p) - centre).length - 0.06 for p in cloth_pts]
+    inv = world_matrix(drape, box, drape.frame_start + k).inverted()
+    depth = []  # how far inside the cube (positive: inside), in its own axes (half size 0.03)
+    for p in cloth_pts:
+        q = inv @ type(centre)(p)
+        depth.append(min(0.03 - abs(c) for c in q))
+    check(min(gaps) > -1e-4 and min(gaps) < 2e-3,
+          f"Drape: frame {k}: the cloth rests on Blender's sphere (nearest vertex {min(gaps) * 1e3:.2f} mm from its surface)")
+    check(max(depth) < 1e-4 and max(depth) > -2e-3,
+          f"Drape: frame {k}: the cloth rests on Blender's moving cube (nearest vertex {-max(depth) * 1e3:.2f} mm outside it)")
 # The pinned corner stays where it was; the held one follows the hand.
 last = obj_frame(ind, frames - 1)
 first = obj_frame(ind, 0)
@@ -399,6 +415,16 @@ frames = hole.frame_end - hole.frame_start + 1
 check(info["frames"] == frames, f"Hole: {frames} Blender frames are {info['frames']} wetcloth frames")
 for k in (0, frames // 2, frames - 1):
     compare(hole, sheet, ind, k)
+# The turned box and the ball (a polygon mesh, inside its sphere by up to 0.3 mm) where Blender has them.
+pts = evaluated_world(hole, sheet, hole.frame_end)
+mb = world_matrix(hole, block, hole.frame_end)
+rot = mb.to_quaternion().to_matrix().inverted()
+half = (0.03, 0.02, 0.03)
+depth = max(min(h - abs(c) for h, c in zip(half, rot @ (type(mb.translation)(p) - mb.translation))) for p in pts)
+check(-2e-3 < depth < 1e-4, f"Hole: the cloth rests on Blender's turned box (nearest vertex {-depth * 1e3:.2f} mm outside it)")
+cb = world_matrix(hole, ball, hole.frame_end).translation
+gap = min((type(cb)(p) - cb).length - 0.035 for p in pts)
+check(-5e-4 < gap < 2e-3, f"Hole: the cloth rests on Blender's ball (nearest vertex {gap * 1e3:.2f} mm from its sphere)")
 got = evaluated_world(hole, sheet, hole.frame_start - 5)
 err_before = largest_difference(got, [from_sim(q) for q in obj_frame(ind, 0)])
 check(err_before <= TOL, f"Hole: before frame_start the cloth shows wetcloth frame 0 ({err_before:.1e} m)")
