@@ -73,6 +73,10 @@ pub const COLLIDER: &[&str] = &[
     "position",
     "rotation",
     "scale",
+    "sequence",
+    "cache",
+    "frame_rate",
+    "start",
     "sticky",
     "keys",
 ];

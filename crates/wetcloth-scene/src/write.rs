@@ -188,6 +188,15 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
                 let _ = writeln!(o, "position = {}  # m", v3(m.position));
                 let _ = writeln!(o, "rotation = {}  # degrees about x, y, z", v3(m.rotation));
                 let _ = writeln!(o, "scale = {}", f(m.scale));
+                if let Some(mo) = m.motion() {
+                    let (key, path) = match &mo.source {
+                        wetcloth::collide::PointSource::Sequence(p) => ("sequence", p),
+                        wetcloth::collide::PointSource::Cache(p) => ("cache", p),
+                    };
+                    let _ = writeln!(o, "{key} = {}", quote(path));
+                    let _ = writeln!(o, "frame_rate = {}  # 1/s", f(mo.frame_rate));
+                    let _ = writeln!(o, "start = {}  # s", f(mo.start));
+                }
             }
         }
         let _ = writeln!(o, "friction = {}", f(col.friction));
