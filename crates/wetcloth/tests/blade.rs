@@ -172,7 +172,10 @@ fn no_particle_ends_a_step_inside_a_swinging_blade() {
                     pushed = pushed.max(p.z);
                 }
             }
-            assert!(pushed > 0.05, "{name}: the blade pushed the cloth only {pushed} m");
+            assert!(
+                pushed > 0.05,
+                "{name}: the blade pushed the cloth only {pushed} m"
+            );
         }
     }
 }

@@ -613,22 +613,44 @@ impl Deform {
     }
 
     fn carry_by(&self, a: &Pose, b: &Pose, tri: u32, q0: Vec3) -> Vec3 {
-        let [a0, b0, c0] = self.corners(a, tri);
-        let [a1, b1, c1] = self.corners(b, tri);
-        let (e1, e2) = (b0 - a0, c0 - a0);
+        let (s, t, h) = self.coordinates(a, tri, q0);
+        self.place(b, tri, s, t, h)
+    }
+
+    /// `q` as `a + s e1 + t e2 + h n` over triangle `tri` of pose `p` (corner `a`, edges `e1`,
+    /// `e2`, unit normal `n`): `(s, t, h)`; a degenerate triangle gives its corner's offset.
+    fn coordinates(&self, p: &Pose, tri: u32, q: Vec3) -> (Real, Real, Real) {
+        let [a, b, c] = self.corners(p, tri);
+        let (e1, e2) = (b - a, c - a);
         let n = e1.cross(e2);
         let n2 = n.length_squared();
+        let r = q - a;
         if n2 == 0.0 {
-            return q0 + (a1 - a0);
+            return (0.0, 0.0, r.length());
         }
-        // q0 - a0 = s e1 + t e2 + h n (n not unit here): solve by the cross products.
-        let r = q0 - a0;
+        // r = s e1 + t e2 + h n (n not unit here): solved by the cross products.
         let s = r.cross(e2).dot(n) / n2;
         let t = e1.cross(r).dot(n) / n2;
-        let h = r.dot(n) / n2.sqrt();
-        let (f1, f2) = (b1 - a1, c1 - a1);
-        let m = f1.cross(f2).normalize_or(n / n2.sqrt());
-        a1 + f1 * s + f2 * t + m * h
+        (s, t, r.dot(n) / n2.sqrt())
+    }
+
+    /// The point `a + s e1 + t e2 + h n` over triangle `tri` of pose `p` (see
+    /// [`Deform::bind`]).
+    pub fn place(&self, p: &Pose, tri: u32, s: Real, t: Real, h: Real) -> Vec3 {
+        let [a, b, c] = self.corners(p, tri);
+        let (f1, f2) = (b - a, c - a);
+        let m = f1.cross(f2).normalize_or(Vec3::Y);
+        a + f1 * s + f2 * t + m * h
+    }
+
+    /// The triangle of pose `p` nearest `q` and `q`'s place over it, `(tri, s, t, h)`: `q` is
+    /// `a + s e1 + t e2 + h n` over its corner `a`, edges `e1`, `e2` and unit normal `n`.
+    pub fn bind(&self, p: &Pose, q: Vec3) -> (u32, Real, Real, Real) {
+        let tri = self
+            .closest(p, q, Real::INFINITY)
+            .map_or(0, |(_, _, tri, _, _)| tri);
+        let (s, t, h) = self.coordinates(p, tri, q);
+        (tri, s, t, h)
     }
 
     /// The contact of a particle moving from `q0` (at pose `a`) to `q1` (at pose `b`) within

@@ -407,6 +407,17 @@ impl Mesh {
         self.matrix.transpose() * (p - self.position)
     }
 
+    /// A point where the scene puts the mesh (m) in the mesh's own frame, scaled to metres
+    /// (the frame of its [`Deform`]'s poses).
+    pub fn to_mesh_frame(&self, p: Vec3) -> Vec3 {
+        self.local(p)
+    }
+
+    /// A point of the mesh's own frame, scaled to metres, where the scene puts the mesh (m).
+    pub fn from_mesh_frame(&self, q: Vec3) -> Vec3 {
+        self.position + self.matrix * q
+    }
+
     /// Signed distance of `p` from the surface (m; negative inside a closed mesh) and the unit
     /// normal pointing from the surface towards `p` (out of a closed mesh).
     pub fn distance(&self, p: Vec3) -> (Real, Vec3) {
