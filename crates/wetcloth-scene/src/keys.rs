@@ -6,7 +6,15 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 /// Keys at the top level of a scene file.
-pub const TOP: &[&str] = &["name", "simulation", "cloth", "air", "collider", "grab"];
+pub const TOP: &[&str] = &[
+    "name",
+    "simulation",
+    "cloth",
+    "air",
+    "collider",
+    "grab",
+    "attach",
+];
 /// Keys of `[simulation]`.
 pub const SIMULATION: &[&str] = &[
     "duration",
@@ -82,6 +90,8 @@ pub const COLLIDER: &[&str] = &[
 ];
 /// Keys of a `[[grab]]`.
 pub const GRAB: &[&str] = &["particle", "vertex", "near", "within", "keys"];
+/// Keys of an `[[attach]]`.
+pub const ATTACH: &[&str] = &["collider", "vertex", "near", "within", "stiffness"];
 /// Keys of a grab's `within` region.
 pub const WITHIN: &[&str] = &["center", "radius", "half_size"];
 /// Keys of one grab key (`keys = [{ time = ..., offset = [...] }]`).
@@ -103,6 +113,8 @@ enum Place {
     Paint,
     Pocket,
     ColliderKey,
+    Attach,
+    AttachWithin,
 }
 
 impl Place {
@@ -119,6 +131,8 @@ impl Place {
             Place::Paint => PAINT,
             Place::Pocket => POCKET,
             Place::ColliderKey => COLLIDER_KEY,
+            Place::Attach => ATTACH,
+            Place::AttachWithin => WITHIN,
         }
     }
 
@@ -135,6 +149,8 @@ impl Place {
             (Place::Cloth, "paint") => Some(Place::Paint),
             (Place::Air, "pocket") => Some(Place::Pocket),
             (Place::Collider, "keys") => Some(Place::ColliderKey),
+            (Place::Top, "attach") => Some(Place::Attach),
+            (Place::Attach, "within") => Some(Place::AttachWithin),
             _ => None,
         }
     }
@@ -152,11 +168,13 @@ impl Place {
             Place::Paint => "cloth.paint[].",
             Place::Pocket => "air.pocket[].",
             Place::ColliderKey => "collider[].keys[].",
+            Place::Attach => "attach[].",
+            Place::AttachWithin => "attach[].within.",
         }
     }
 }
 
-const ALL_PLACES: [Place; 11] = [
+const ALL_PLACES: [Place; 13] = [
     Place::Top,
     Place::Simulation,
     Place::Cloth,
@@ -168,6 +186,8 @@ const ALL_PLACES: [Place; 11] = [
     Place::Paint,
     Place::Pocket,
     Place::ColliderKey,
+    Place::Attach,
+    Place::AttachWithin,
 ];
 
 /// An unknown key found in a document.
@@ -352,7 +372,7 @@ pub fn kind_at(doc: &Spanned<DeTable<'_>>, text: &str, path: &str) -> Option<Str
 pub fn expected_at_top(key: &str) -> Option<String> {
     match key {
         "simulation" | "cloth" | "air" => Some(format!("a table, written [{key}]")),
-        "collider" | "grab" => Some(format!("an array of tables, written [[{key}]]")),
+        "collider" | "grab" | "attach" => Some(format!("an array of tables, written [[{key}]]")),
         _ => None,
     }
 }

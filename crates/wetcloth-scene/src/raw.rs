@@ -38,6 +38,18 @@ struct RawScene {
     collider: Option<Vec<Spanned<RawCollider>>>,
     #[serde(default)]
     grab: Vec<Spanned<RawGrab>>,
+    #[serde(default)]
+    attach: Vec<Spanned<RawAttach>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAttach {
+    collider: usize,
+    vertex: Option<usize>,
+    near: Option<Arr<Real, 3>>,
+    within: Option<RawWithin>,
+    stiffness: Option<Spanned<Real>>,
 }
 
 #[derive(Deserialize)]
@@ -677,6 +689,12 @@ fn convert(
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
+    let attachments = raw
+        .attach
+        .into_iter()
+        .enumerate()
+        .map(|(i, a)| attach(cx, i, a))
+        .collect::<Result<Vec<_>, _>>()?;
 
     Ok((
         name,
@@ -686,8 +704,69 @@ fn convert(
             air,
             colliders,
             grabs,
+            attachments,
         },
     ))
+}
+
+/// An `[[attach]]` table: its collider and its particles, picked as a grab's.
+fn attach(
+    cx: &Ctx<'_>,
+    i: usize,
+    a: Spanned<RawAttach>,
+) -> Result<wetcloth::control::AttachSpec, SceneError> {
+    let span = a.span();
+    let a = a.into_inner();
+    let fail = |span: Range<usize>, key: String, message: String| SceneError::Invalid {
+        at: cx.at(span.clone()),
+        key,
+        value: cx.raw(&span),
+        message,
+    };
+    if let Some(k) = &a.stiffness {
+        return Err(fail(
+            k.span(),
+            format!("attach[{i}].stiffness"),
+            "soft attachments are not available yet: leave `stiffness` out for a hard \
+             attachment (the particles held exactly on their points)"
+                .into(),
+        ));
+    }
+    let given = usize::from(a.vertex.is_some())
+        + usize::from(a.near.is_some())
+        + usize::from(a.within.is_some());
+    let pick = match (a.vertex, a.near, a.within) {
+        _ if given != 1 => None,
+        (Some(k), ..) => Some(GrabPick::Vertex(k)),
+        (_, Some(p), _) => Some(GrabPick::Near(vec3(p))),
+        (_, _, Some(w)) => match (w.radius, w.half_size) {
+            (Some(radius), None) => Some(GrabPick::Ball {
+                center: vec3(w.center),
+                radius,
+            }),
+            (None, Some(h)) => Some(GrabPick::Box {
+                center: vec3(w.center),
+                half_size: vec3(h),
+            }),
+            _ => None,
+        },
+        _ => None,
+    };
+    let pick = pick.ok_or_else(|| {
+        fail(
+            span,
+            format!("attach[{i}]"),
+            format!(
+                "an attachment takes exactly one of `vertex = K`, `near = [x, y, z]` and \
+                 `within = {{ center = [x, y, z], radius = R }}` (or `half_size = [hx, hy, \
+                 hz]`, not both); found {given}"
+            ),
+        )
+    })?;
+    Ok(wetcloth::control::AttachSpec {
+        collider: a.collider,
+        pick,
+    })
 }
 
 /// The choice among `all` that `value` names (by `name`), or an error at its span listing the

@@ -260,5 +260,26 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
         }
         let _ = writeln!(o, "]");
     }
+    for a in &config.attachments {
+        let _ = writeln!(o);
+        let _ = writeln!(o, "[[attach]]");
+        let _ = writeln!(o, "collider = {}  # 0-based", a.collider);
+        let _ = match &a.pick {
+            GrabPick::Vertex(k) => writeln!(o, "vertex = {k}"),
+            GrabPick::Near(p) => writeln!(o, "near = {}  # m", v3(*p)),
+            GrabPick::Ball { center, radius } => writeln!(
+                o,
+                "within = {{ center = {}, radius = {} }}  # m",
+                v3(*center),
+                f(*radius)
+            ),
+            GrabPick::Box { center, half_size } => writeln!(
+                o,
+                "within = {{ center = {}, half_size = {} }}  # m",
+                v3(*center),
+                v3(*half_size)
+            ),
+        };
+    }
     o
 }

@@ -228,3 +228,39 @@ fn bad_motions_are_refused_naming_the_file() {
         .to_string();
     assert!(e.contains("a sphere collider has no `frame_rate`"), "{e}");
 }
+
+/// `[[attach]]` reads its collider and particles as a grab's, writes back to the same, and
+/// refuses a collider the scene lacks and a `stiffness` (soft attachments are not available).
+#[test]
+fn attachments_read_and_refuse_by_key() {
+    let text = "[cloth]\nresolution = [4, 4]\nposition = [0.0, 0.5, 0.0]\n\n[air]\nenabled = \
+                false\n\n[[collider]]\nshape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = \
+                0.1\n\n[[attach]]\ncollider = 0\nwithin = { center = [0.0, 0.5, 0.0], radius = \
+                0.05 }\n";
+    let scene = wetcloth_scene::parse(text, Path::new("a.toml")).unwrap();
+    assert_eq!(scene.config.attachments.len(), 1);
+    assert_eq!(scene.config.attachments[0].collider, 0);
+    let back = wetcloth_scene::parse(&scene.to_toml(), Path::new("b.toml")).unwrap();
+    assert_eq!(back.config, scene.config);
+    let e = wetcloth_scene::parse(
+        &text.replace("collider = 0", "collider = 3"),
+        Path::new("a.toml"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("attach[0].collider") && e.contains("[0, 0]"),
+        "{e}"
+    );
+    let e = wetcloth_scene::parse(&format!("{text}stiffness = 10.0\n"), Path::new("a.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("attach[0].stiffness") && e.contains("a.toml:"),
+        "{e}"
+    );
+    let e = wetcloth_scene::parse(&format!("{text}vertex = 1\n"), Path::new("a.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("exactly one of"), "{e}");
+}
