@@ -6,7 +6,15 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 /// Keys at the top level of a scene file.
-pub const TOP: &[&str] = &["name", "simulation", "cloth", "air", "collider", "grab"];
+pub const TOP: &[&str] = &[
+    "name",
+    "simulation",
+    "cloth",
+    "air",
+    "collider",
+    "grab",
+    "attach",
+];
 /// Keys of `[simulation]`.
 pub const SIMULATION: &[&str] = &[
     "duration",
@@ -82,11 +90,17 @@ pub const COLLIDER: &[&str] = &[
     "position",
     "rotation",
     "scale",
+    "sequence",
+    "cache",
+    "frame_rate",
+    "start",
     "sticky",
     "keys",
 ];
 /// Keys of a `[[grab]]`.
 pub const GRAB: &[&str] = &["particle", "vertex", "near", "within", "keys"];
+/// Keys of an `[[attach]]`.
+pub const ATTACH: &[&str] = &["collider", "vertex", "near", "within", "stiffness"];
 /// Keys of a grab's `within` region.
 pub const WITHIN: &[&str] = &["center", "radius", "half_size"];
 /// Keys of one grab key (`keys = [{ time = ..., offset = [...] }]`).
@@ -110,6 +124,8 @@ enum Place {
     ColliderKey,
     Membrane,
     Bending,
+    Attach,
+    AttachWithin,
 }
 
 impl Place {
@@ -128,6 +144,8 @@ impl Place {
             Place::ColliderKey => COLLIDER_KEY,
             Place::Membrane => MEMBRANE,
             Place::Bending => BENDING,
+            Place::Attach => ATTACH,
+            Place::AttachWithin => WITHIN,
         }
     }
 
@@ -146,6 +164,8 @@ impl Place {
             (Place::Cloth, "bending") => Some(Place::Bending),
             (Place::Air, "pocket") => Some(Place::Pocket),
             (Place::Collider, "keys") => Some(Place::ColliderKey),
+            (Place::Top, "attach") => Some(Place::Attach),
+            (Place::Attach, "within") => Some(Place::AttachWithin),
             _ => None,
         }
     }
@@ -165,11 +185,13 @@ impl Place {
             Place::ColliderKey => "collider[].keys[].",
             Place::Membrane => "cloth.membrane.",
             Place::Bending => "cloth.bending.",
+            Place::Attach => "attach[].",
+            Place::AttachWithin => "attach[].within.",
         }
     }
 }
 
-const ALL_PLACES: [Place; 13] = [
+const ALL_PLACES: [Place; 15] = [
     Place::Top,
     Place::Simulation,
     Place::Cloth,
@@ -183,6 +205,8 @@ const ALL_PLACES: [Place; 13] = [
     Place::ColliderKey,
     Place::Membrane,
     Place::Bending,
+    Place::Attach,
+    Place::AttachWithin,
 ];
 
 /// An unknown key found in a document.
@@ -367,7 +391,7 @@ pub fn kind_at(doc: &Spanned<DeTable<'_>>, text: &str, path: &str) -> Option<Str
 pub fn expected_at_top(key: &str) -> Option<String> {
     match key {
         "simulation" | "cloth" | "air" => Some(format!("a table, written [{key}]")),
-        "collider" | "grab" => Some(format!("an array of tables, written [[{key}]]")),
+        "collider" | "grab" | "attach" => Some(format!("an array of tables, written [[{key}]]")),
         _ => None,
     }
 }

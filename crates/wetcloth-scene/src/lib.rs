@@ -23,9 +23,11 @@
 //! ```
 
 mod cloth_obj;
+mod collider_motion;
 mod error;
 mod keys;
 pub mod obj;
+pub mod points;
 mod raw;
 mod set;
 mod start;

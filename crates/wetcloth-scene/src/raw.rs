@@ -38,6 +38,18 @@ struct RawScene {
     collider: Option<Vec<Spanned<RawCollider>>>,
     #[serde(default)]
     grab: Vec<Spanned<RawGrab>>,
+    #[serde(default)]
+    attach: Vec<Spanned<RawAttach>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAttach {
+    collider: usize,
+    vertex: Option<usize>,
+    near: Option<Arr<Real, 3>>,
+    within: Option<RawWithin>,
+    stiffness: Option<Spanned<Real>>,
 }
 
 #[derive(Deserialize)]
@@ -148,6 +160,10 @@ struct RawCollider {
     position: Option<Spanned<Arr<Real, 3>>>,
     rotation: Option<Spanned<Arr<Real, 3>>>,
     scale: Option<Spanned<Real>>,
+    sequence: Option<Spanned<String>>,
+    cache: Option<Spanned<String>>,
+    frame_rate: Option<Spanned<Real>>,
+    start: Option<Spanned<Real>>,
     friction: Option<Real>,
     sticky: Option<bool>,
     keys: Option<Vec<RawColliderKey>>,
@@ -199,17 +215,17 @@ pub fn default_ground() -> Collider {
 pub const SHAPES: [&str; 4] = ["plane", "sphere", "box", "mesh"];
 
 /// Context for building errors that point into the text.
-struct Ctx<'a> {
+pub(crate) struct Ctx<'a> {
     file: &'a str,
     text: &'a str,
 }
 
 impl Ctx<'_> {
-    fn at(&self, span: Range<usize>) -> Box<Location> {
+    pub(crate) fn at(&self, span: Range<usize>) -> Box<Location> {
         Box::new(Location::of_span(self.file, self.text, span))
     }
 
-    fn raw(&self, span: &Range<usize>) -> String {
+    pub(crate) fn raw(&self, span: &Range<usize>) -> String {
         self.text
             .get(span.clone())
             .unwrap_or("?")
@@ -697,6 +713,12 @@ fn convert(
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
+    let attachments = raw
+        .attach
+        .into_iter()
+        .enumerate()
+        .map(|(i, a)| attach(cx, i, a))
+        .collect::<Result<Vec<_>, _>>()?;
 
     Ok((
         name,
@@ -706,8 +728,69 @@ fn convert(
             air,
             colliders,
             grabs,
+            attachments,
         },
     ))
+}
+
+/// An `[[attach]]` table: its collider and its particles, picked as a grab's.
+fn attach(
+    cx: &Ctx<'_>,
+    i: usize,
+    a: Spanned<RawAttach>,
+) -> Result<wetcloth::control::AttachSpec, SceneError> {
+    let span = a.span();
+    let a = a.into_inner();
+    let fail = |span: Range<usize>, key: String, message: String| SceneError::Invalid {
+        at: cx.at(span.clone()),
+        key,
+        value: cx.raw(&span),
+        message,
+    };
+    if let Some(k) = &a.stiffness {
+        return Err(fail(
+            k.span(),
+            format!("attach[{i}].stiffness"),
+            "soft attachments are not available yet: leave `stiffness` out for a hard \
+             attachment (the particles held exactly on their points)"
+                .into(),
+        ));
+    }
+    let given = usize::from(a.vertex.is_some())
+        + usize::from(a.near.is_some())
+        + usize::from(a.within.is_some());
+    let pick = match (a.vertex, a.near, a.within) {
+        _ if given != 1 => None,
+        (Some(k), ..) => Some(GrabPick::Vertex(k)),
+        (_, Some(p), _) => Some(GrabPick::Near(vec3(p))),
+        (_, _, Some(w)) => match (w.radius, w.half_size) {
+            (Some(radius), None) => Some(GrabPick::Ball {
+                center: vec3(w.center),
+                radius,
+            }),
+            (None, Some(h)) => Some(GrabPick::Box {
+                center: vec3(w.center),
+                half_size: vec3(h),
+            }),
+            _ => None,
+        },
+        _ => None,
+    };
+    let pick = pick.ok_or_else(|| {
+        fail(
+            span,
+            format!("attach[{i}]"),
+            format!(
+                "an attachment takes exactly one of `vertex = K`, `near = [x, y, z]` and \
+                 `within = {{ center = [x, y, z], radius = R }}` (or `half_size = [hx, hy, \
+                 hz]`, not both); found {given}"
+            ),
+        )
+    })?;
+    Ok(wetcloth::control::AttachSpec {
+        collider: a.collider,
+        pick,
+    })
 }
 
 /// The choice among `all` that `value` names (by `name`), or an error at its span listing the
@@ -811,7 +894,16 @@ fn collider(
         "plane" => &["point", "normal"],
         "sphere" => &["center", "radius"],
         "box" => &["center", "half_extents"],
-        "mesh" => &["file", "position", "rotation", "scale"],
+        "mesh" => &[
+            "file",
+            "position",
+            "rotation",
+            "scale",
+            "sequence",
+            "cache",
+            "frame_rate",
+            "start",
+        ],
         _ => {
             return Err(SceneError::Invalid {
                 at: cx.at(c.shape.span()),
@@ -835,6 +927,10 @@ fn collider(
         ("position", c.position.as_ref().map(|s| s.span())),
         ("rotation", c.rotation.as_ref().map(|s| s.span())),
         ("scale", c.scale.as_ref().map(|s| s.span())),
+        ("sequence", c.sequence.as_ref().map(|s| s.span())),
+        ("cache", c.cache.as_ref().map(|s| s.span())),
+        ("frame_rate", c.frame_rate.as_ref().map(|s| s.span())),
+        ("start", c.start.as_ref().map(|s| s.span())),
     ];
     for (name, span) in given {
         if let Some(span) = span
@@ -898,30 +994,61 @@ fn collider(
                 .ok_or_else(|| missing("half_extents", "[x, y, z] (m)"))?,
         }),
         _ => {
-            let file = c.file.ok_or_else(|| {
-                missing("file", "\"path/to/mesh.obj\" (relative to the scene file)")
-            })?;
-            let mesh = load_mesh(cx, &key("file"), &file)?;
+            let rest = match &c.file {
+                Some(file) => Some(load_mesh(cx, &key("file"), file)?),
+                None => None,
+            };
+            let moving = crate::collider_motion::read(
+                cx,
+                &key,
+                table_span.clone(),
+                rest.as_ref(),
+                crate::collider_motion::Keys {
+                    sequence: c.sequence.as_ref(),
+                    cache: c.cache.as_ref(),
+                    frame_rate: c.frame_rate.as_ref(),
+                    start: c.start.as_ref(),
+                },
+            )?;
+            let (file, mesh) = match (c.file, rest, moving.rest) {
+                (Some(file), Some(mesh), _) => (file, mesh),
+                (None, _, Some((seq, mesh))) => (seq, mesh),
+                _ => {
+                    return Err(missing(
+                        "file",
+                        "\"path/to/mesh.obj\" (relative to the scene file)",
+                    ));
+                }
+            };
             // The collider names its file by the absolute path it was read from, so the
             // resolved scene a run writes (`to_toml`) reads the same mesh from any folder.
             let path = mesh_path(cx, file.get_ref());
             let named = std::path::absolute(&path).unwrap_or(path);
-            Shape::Mesh(
-                Mesh::new(
-                    named.display().to_string(),
-                    mesh.vertices,
-                    mesh.triangles,
-                    v(c.position).unwrap_or(Vec3::ZERO),
-                    v(c.rotation).unwrap_or(Vec3::ZERO),
-                    c.scale.map_or(1.0, Spanned::into_inner),
-                )
-                .map_err(|e| SceneError::Invalid {
+            let placed = Mesh::new(
+                named.display().to_string(),
+                mesh.vertices,
+                mesh.triangles,
+                v(c.position).unwrap_or(Vec3::ZERO),
+                v(c.rotation).unwrap_or(Vec3::ZERO),
+                c.scale.map_or(1.0, Spanned::into_inner),
+            );
+            let placed = match (placed, moving.motion) {
+                (Ok(m), Some((motion, span, k))) => {
+                    m.with_motion(motion).map_err(|e| SceneError::Invalid {
+                        at: cx.at(span.clone()),
+                        key: key(k),
+                        value: cx.raw(&span),
+                        message: e.to_string(),
+                    })
+                }
+                (placed, _) => placed.map_err(|e| SceneError::Invalid {
                     at: cx.at(file.span()),
                     key: key("file"),
                     value: cx.raw(&file.span()),
                     message: format!("{}: {e}", mesh_path(cx, file.get_ref()).display()),
-                })?,
-            )
+                }),
+            };
+            Shape::Mesh(placed?)
         }
     };
     let keys = c
@@ -1108,7 +1235,7 @@ fn cloth_mesh(
 }
 
 /// Where a mesh file named `file` in the scene is: relative to the scene file's folder.
-fn mesh_path(cx: &Ctx<'_>, file: &str) -> std::path::PathBuf {
+pub(crate) fn mesh_path(cx: &Ctx<'_>, file: &str) -> std::path::PathBuf {
     let base = std::path::Path::new(cx.file)
         .parent()
         .unwrap_or(std::path::Path::new(""));
@@ -1116,7 +1243,7 @@ fn mesh_path(cx: &Ctx<'_>, file: &str) -> std::path::PathBuf {
 }
 
 /// Reads and parses the OBJ file named by the scene key `key` (its value `file`).
-fn load_mesh(
+pub(crate) fn load_mesh(
     cx: &Ctx<'_>,
     key: &str,
     file: &Spanned<String>,

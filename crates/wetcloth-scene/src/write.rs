@@ -221,6 +221,15 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
                 let _ = writeln!(o, "position = {}  # m", v3(m.position));
                 let _ = writeln!(o, "rotation = {}  # degrees about x, y, z", v3(m.rotation));
                 let _ = writeln!(o, "scale = {}", f(m.scale));
+                if let Some(mo) = m.motion() {
+                    let (key, path) = match &mo.source {
+                        wetcloth::collide::PointSource::Sequence(p) => ("sequence", p),
+                        wetcloth::collide::PointSource::Cache(p) => ("cache", p),
+                    };
+                    let _ = writeln!(o, "{key} = {}", quote(path));
+                    let _ = writeln!(o, "frame_rate = {}  # 1/s", f(mo.frame_rate));
+                    let _ = writeln!(o, "start = {}  # s", f(mo.start));
+                }
             }
         }
         let _ = writeln!(o, "friction = {}", f(col.friction));
@@ -283,6 +292,27 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
             );
         }
         let _ = writeln!(o, "]");
+    }
+    for a in &config.attachments {
+        let _ = writeln!(o);
+        let _ = writeln!(o, "[[attach]]");
+        let _ = writeln!(o, "collider = {}  # 0-based", a.collider);
+        let _ = match &a.pick {
+            GrabPick::Vertex(k) => writeln!(o, "vertex = {k}"),
+            GrabPick::Near(p) => writeln!(o, "near = {}  # m", v3(*p)),
+            GrabPick::Ball { center, radius } => writeln!(
+                o,
+                "within = {{ center = {}, radius = {} }}  # m",
+                v3(*center),
+                f(*radius)
+            ),
+            GrabPick::Box { center, half_size } => writeln!(
+                o,
+                "within = {{ center = {}, half_size = {} }}  # m",
+                v3(*center),
+                v3(*half_size)
+            ),
+        };
     }
     o
 }

@@ -630,7 +630,7 @@ fn find_grab(sim: &Simulation, particle: usize) -> Option<usize> {
 fn grab_target(sim: &Simulation, i: usize) -> Option<Vec3> {
     match sim.grabs()[i].motion {
         GrabMotion::Target { target, .. } => Some(target),
-        GrabMotion::Path(_) => None,
+        GrabMotion::Path(_) | GrabMotion::Attached(_) => None,
     }
 }
 

@@ -75,3 +75,55 @@ fn on_sphere(bencher: divan::Bencher) {
         resting(Collider::sphere(Vec3::ZERO, 1.0, 0.6), 1.0 + R),
     );
 }
+
+/// The same icosphere breathing (its radius 1 m to 1.01 m and back over 30 frames at 30 per
+/// second, from before the cloth settles): every step refits its hierarchy to a new pose and
+/// carries each particle's start by its nearest triangle.
+#[divan::bench]
+fn on_deforming_mesh_20480_triangles(bencher: divan::Bencher) {
+    use std::sync::Arc;
+    use wetcloth::collide::{PointMotion, PointSource};
+    let (v, f) = icosphere(1.0, 5);
+    let frames = (0..=30)
+        .map(|k| {
+            let s = 1.0 + 0.01 * (std::f64::consts::PI * k as Real / 30.0).sin();
+            v.iter().map(|p| *p * s).collect()
+        })
+        .collect();
+    let mesh = Mesh::new("icosphere", v, f, Vec3::ZERO, Vec3::ZERO, 1.0)
+        .expect("valid mesh")
+        .with_motion(PointMotion {
+            source: PointSource::Sequence("breathing_##.obj".into()),
+            frame_rate: 30.0,
+            start: 0.0,
+            frames: Arc::new(frames),
+        })
+        .expect("valid motion");
+    step(bencher, resting(Collider::mesh(mesh, 0.6), 1.0 + R));
+}
+
+/// A pose of the 20 480-triangle icosphere at a new time: its 10 242 points interpolated and
+/// its hierarchy refitted (what a deforming mesh costs per step, whatever the cloth).
+#[divan::bench]
+fn deforming_mesh_pose_refit(bencher: divan::Bencher) {
+    use std::sync::Arc;
+    use wetcloth::collide::{PointMotion, PointSource};
+    let (v, f) = icosphere(1.0, 5);
+    let frames = vec![v.clone(), v.iter().map(|p| *p * 1.01).collect()];
+    let mesh = Mesh::new("icosphere", v, f, Vec3::ZERO, Vec3::ZERO, 1.0)
+        .expect("valid mesh")
+        .with_motion(PointMotion {
+            source: PointSource::Sequence("two_##.obj".into()),
+            frame_rate: 1.0,
+            start: 0.0,
+            frames: Arc::new(frames),
+        })
+        .expect("valid motion");
+    let d = mesh.deform().expect("deforms");
+    let mut t = 0.0;
+    bencher.bench_local(|| {
+        // A new time each call, so the pose cache never answers.
+        t += 1e-7;
+        d.pose(t)
+    });
+}

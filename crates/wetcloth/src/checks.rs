@@ -213,6 +213,8 @@ pub fn grab_reach(control: &Control, centre: Vec3) -> Real {
                 .map(|k| k.offset.length())
                 .fold(0.0, Real::max),
             GrabMotion::Target { target, .. } => (*target - centre).length(),
+            // An attachment is carried by its collider, whose work is counted.
+            GrabMotion::Attached(_) => 0.0,
         })
         .sum()
 }

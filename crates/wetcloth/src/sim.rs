@@ -6,7 +6,7 @@ use crate::checks::{self, EnergyAudit};
 use crate::collide::contact;
 use crate::collide::self_collision::SelfCollision;
 use crate::constraints::strain_limit;
-use crate::control::{Control, Grab, GrabMotion, GrabPick};
+use crate::control::{Attachment, Control, Grab, GrabMotion, GrabPick, attach};
 use crate::error::{ConfigError, StepError};
 use crate::exec;
 use crate::integrate::{Air, Fused, IntegratorState};
@@ -93,6 +93,32 @@ impl Simulation {
                     .grabs
                     .push(Grab::new(k, GrabMotion::Path(g.clone())));
                 grab_of.push(i as u32);
+            }
+        }
+        // Attachments after the scene's grabs (so `grab_of` still names those first).
+        for (i, a) in config.attachments.iter().enumerate() {
+            let held = a.pick.particles(&rest);
+            if held.is_empty() {
+                return Err(ConfigError::Invalid {
+                    key: format!("attach[{i}]"),
+                    message: match &a.pick {
+                        GrabPick::Vertex(k) => {
+                            format!("vertex {k} is out of range: the cloth has {n} particles")
+                        }
+                        _ => "no particle of the cloth is inside at t = 0".into(),
+                    },
+                });
+            }
+            let collider = &model.colliders[a.collider];
+            for k in held {
+                let attachment = Attachment {
+                    attach: i as u32,
+                    collider: a.collider as u32,
+                    binding: attach::bind(collider, rest.get(k)),
+                };
+                control
+                    .grabs
+                    .push(Grab::new(k, GrabMotion::Attached(attachment)));
             }
         }
         let mut sim = Self {
@@ -333,9 +359,38 @@ impl Simulation {
         &mut self.control.grabs[index]
     }
 
+    /// Each `[[attach]]`'s force on the cloth during the last step, N, summed over the
+    /// particles it holds, with how many it holds: one entry per attachment, in scene order.
+    pub fn attach_forces(&self) -> Vec<(usize, Vec3)> {
+        let mut out = vec![(0usize, Vec3::ZERO); self.config.attachments.len()];
+        for g in &self.control.grabs {
+            if let GrabMotion::Attached(a) = &g.motion {
+                let o = &mut out[a.attach as usize];
+                o.0 += 1;
+                o.1 += g.force();
+            }
+        }
+        out
+    }
+
+    /// Summed force of every attachment on the cloth during the last step, N.
+    pub fn attach_force(&self) -> Vec3 {
+        self.control
+            .grabs
+            .iter()
+            .filter(|g| matches!(g.motion, GrabMotion::Attached(_)))
+            .map(|g| g.force)
+            .sum()
+    }
+
     /// Summed force of all grabs on the cloth during the last step, N.
     pub fn grab_force(&self) -> Vec3 {
-        self.control.grabs.iter().map(|g| g.force).sum()
+        self.control
+            .grabs
+            .iter()
+            .filter(|g| !matches!(g.motion, GrabMotion::Attached(_)))
+            .map(|g| g.force)
+            .sum()
     }
 
     /// Conjugate-gradient iterations the implicit integrator took over every step this
@@ -595,7 +650,11 @@ impl Simulation {
     /// count is left to the caller.
     fn span(&mut self, t_next: Real, dt: Real) -> Result<(), StepError> {
         // 1. Input.
-        self.control.begin_step(&self.state.x, t_next, dt);
+        let colliders = &self.model.colliders;
+        self.control
+            .begin_step(&self.state.x, t_next, dt, &|a: &Attachment, t| {
+                attach::place(&colliders[a.collider as usize], &a.binding, t)
+            });
 
         // 2. Air load.
         let timing = self.air.begin_step(

@@ -582,10 +582,12 @@ impl Pockets {
             sc.normal.clear();
             sc.normal.resize(n, crate::math::Vec3::Y);
             for c in model.colliders.iter().filter(|c| c.sticky) {
-                let place = c.is_moving().then(|| c.placement_at(t));
+                // A deforming mesh is taken as it is at `t` whole (its pose and placement).
+                let posed = c.is_deforming().then(|| c.at(t));
+                let place = (c.is_moving() && posed.is_none()).then(|| c.placement_at(t));
                 for k in 0..n {
                     let (d, normal) = match &place {
-                        None => c.distance(x.get(k)),
+                        None => posed.as_ref().unwrap_or(c).distance(x.get(k)),
                         Some(at) => {
                             let (d, normal) = c.rest_distance(at.to_rest(x.get(k)));
                             (d, at.dir_to_world(normal))

@@ -17,8 +17,14 @@
 //! moving plate rides along with it. The collider does work on the cloth: the contact force
 //! `F = m dx / dt^2` (`dx` the correction) over the move `u` of the touched surface point during
 //! the step, `W = F . u`, which the energy audit counts (see `checks.rs`).
+//!
+//! **Deforming meshes** (a mesh whose points move) have no one moving frame: the start of the
+//! particle's move is carried by the triangle nearest it instead, and the contact point's own
+//! move over the step is the surface's (see [`super::deform`]); for a rigid motion of the points
+//! that is the rigid frame's answer.
 
-use super::{Collider, Placement};
+use super::mesh::Sweep;
+use super::{Collider, Placement, Shape};
 use crate::math::{Real, Vec3};
 
 /// Pushes the particle sphere (radius `radius`, m) predicted at `x` out of every collider and
@@ -64,12 +70,15 @@ pub fn resolve_scaled(
 }
 
 /// Where a moving collider is at the start and at the end of a step.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct Frames {
     /// Placement at the start of the step.
     pub start: Placement,
     /// Placement at the end of the step.
     pub end: Placement,
+    /// A deforming mesh's poses at the step's two ends (in its scene placement, which the
+    /// placements above then move).
+    pub sweep: Option<Sweep>,
 }
 
 impl Frames {
@@ -78,7 +87,44 @@ impl Frames {
         Self {
             start: collider.placement_at(t),
             end: collider.placement_at(t + dt),
+            sweep: match &collider.shape {
+                Shape::Mesh(m) => m.sweep(t, dt),
+                _ => None,
+            },
         }
+    }
+
+    /// Where the surface point nearest `x` (world, m, at the step's start) is at the step's
+    /// end: carried rigidly by the placements, and on a deforming mesh by the triangle nearest
+    /// it within `reach` (m; farther points see the placements' motion only).
+    pub fn carry(&self, collider: &Collider, x: Vec3, reach: Real) -> Vec3 {
+        let q = self.start.to_rest(x);
+        let q = match (&self.sweep, &collider.shape) {
+            (Some(sweep), Shape::Mesh(m)) => m.carry(sweep, q, reach),
+            _ => q,
+        };
+        self.end.to_world(q)
+    }
+
+    /// The contact query of a particle moving from `x_old` to `x` (world, m) over the step,
+    /// in the collider's moving frame: `None` when the surface is certainly farther than
+    /// `reach` (m); else the signed distance and the unit normal (world, at the step's end).
+    pub fn contact(
+        &self,
+        collider: &Collider,
+        x_old: Vec3,
+        x: Vec3,
+        reach: Real,
+    ) -> Option<(Real, Vec3)> {
+        let (q0, q) = (self.start.to_rest(x_old), self.end.to_rest(x));
+        let (d, n) = match (&self.sweep, &collider.shape) {
+            (Some(sweep), Shape::Mesh(m)) => {
+                let c = m.swept_contact(sweep, q0, q, reach)?;
+                (c.distance, c.normal)
+            }
+            _ => collider.rest_contact(q0, q, reach)?,
+        };
+        Some((d, self.end.dir_to_world(n)))
     }
 }
 
@@ -98,6 +144,20 @@ pub fn resolve_moving(
     mass: Real,
     step_per_force: Real,
 ) -> (Vec3, bool, Real) {
+    if let (Some(sweep), Shape::Mesh(m)) = (&frames.sweep, &c.shape) {
+        return resolve_deforming(
+            c,
+            m,
+            sweep,
+            frames,
+            x_old,
+            x,
+            radius,
+            friction_scale,
+            mass,
+            step_per_force,
+        );
+    }
     let q0 = frames.start.to_rest(x_old);
     let mut q = frames.end.to_rest(x);
     let Some((d, n)) = c.rest_contact(q0, q, radius) else {
@@ -119,6 +179,47 @@ pub fn resolve_moving(
     };
     let out = frames.end.to_world(q);
     let surface_move = out - frames.start.to_world(q);
+    let work = mass * (out - x).dot(surface_move) / step_per_force;
+    (out, true, work)
+}
+
+/// [`resolve_moving`] for a deforming mesh `m` (the shape of `c`) over the step `sweep`: the
+/// particle's start carried by the surface nearest it (see [`super::deform`]).
+#[allow(clippy::too_many_arguments)] // one particle, its collider and its step
+fn resolve_deforming(
+    c: &Collider,
+    m: &super::Mesh,
+    sweep: &Sweep,
+    frames: &Frames,
+    x_old: Vec3,
+    x: Vec3,
+    radius: Real,
+    friction_scale: Real,
+    mass: Real,
+    step_per_force: Real,
+) -> (Vec3, bool, Real) {
+    let q0 = frames.start.to_rest(x_old);
+    let mut q = frames.end.to_rest(x);
+    let Some(hit) = m.swept_contact(sweep, q0, q, radius) else {
+        return (x, false, 0.0);
+    };
+    if hit.distance >= radius {
+        return (x, false, 0.0);
+    }
+    let n = hit.normal;
+    let depth = radius - hit.distance;
+    q += n * depth;
+    let step = q - hit.from;
+    let tangential = step - n * step.dot(n);
+    let slide = tangential.length();
+    let grip = c.friction * friction_scale * depth;
+    q -= if slide <= grip {
+        tangential
+    } else {
+        tangential * (grip / slide)
+    };
+    let out = frames.end.to_world(q);
+    let surface_move = out - frames.start.to_world(q - hit.moved);
     let work = mass * (out - x).dot(surface_move) / step_per_force;
     (out, true, work)
 }

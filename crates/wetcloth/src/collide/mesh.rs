@@ -23,6 +23,7 @@
 //! its radius plus its move needs no inside test (the contact query stops there).
 
 use super::SurfaceMesh;
+use super::deform::{Deform, PointMotion, Pose, SweptContact};
 use super::motion::rotation_matrix;
 use crate::error::ConfigError;
 use crate::math::{Real, Vec3};
@@ -97,6 +98,9 @@ pub enum MeshError {
         /// The copy's path relative to the run folder.
         copy: String,
     },
+    /// A point motion that does not fit the mesh.
+    #[error("{0}")]
+    Motion(String),
 }
 
 /// A triangle-mesh collider.
@@ -129,6 +133,22 @@ pub struct Mesh {
     matrix: DMat3,
     /// [`mesh_digest`] of `vertices` and `triangles`.
     digest: u64,
+    /// The motion of the mesh's points, for a deforming mesh (scene `sequence` or `cache`).
+    deform: Option<Arc<Deform>>,
+    /// The deformed mesh at one time, in a copy taken by [`super::Collider::at`]; `None` is the
+    /// rest mesh.
+    pose: Option<Arc<Pose>>,
+}
+
+/// A deforming mesh's poses at the start and end of a step (see [`super::deform`]).
+#[derive(Clone, Debug)]
+pub struct Sweep {
+    /// The pose at the step's start.
+    pub start: Arc<Pose>,
+    /// The pose at the step's end.
+    pub end: Arc<Pose>,
+    /// The largest move of any point of the mesh over the step, m.
+    pub max_move: Real,
 }
 
 impl std::fmt::Debug for Mesh {
@@ -141,6 +161,7 @@ impl std::fmt::Debug for Mesh {
             .field("vertices", &self.vertices.len())
             .field("triangles", &self.triangles.len())
             .field("closed", &self.closed)
+            .field("deform", &self.deform)
             .finish()
     }
 }
@@ -153,6 +174,7 @@ impl PartialEq for Mesh {
             && self.scale == o.scale
             && self.vertices == o.vertices
             && self.triangles == o.triangles
+            && self.motion() == o.motion()
     }
 }
 
@@ -225,7 +247,129 @@ impl Mesh {
             closed,
             matrix: rotation_matrix(rotation),
             digest,
+            deform: None,
+            pose: None,
         })
+    }
+
+    /// This mesh with its points moved by `motion` (a deforming mesh, see [`super::deform`]).
+    /// Refuses a motion whose frames do not all have the mesh's vertex count, or have a
+    /// non-finite point or one beyond [`MAX_COORDINATE`].
+    pub fn with_motion(mut self, motion: PointMotion) -> Result<Self, MeshError> {
+        if motion.frames.is_empty() {
+            return Err(MeshError::Motion("the motion has no frames".into()));
+        }
+        for (f, frame) in motion.frames.iter().enumerate() {
+            if frame.len() != self.vertices.len() {
+                return Err(MeshError::Motion(format!(
+                    "frame {f} has {} points, but the rest mesh has {} vertices",
+                    frame.len(),
+                    self.vertices.len()
+                )));
+            }
+            if let Some((i, v)) = frame
+                .iter()
+                .enumerate()
+                .find(|(_, v)| !(v.is_finite() && v.abs().max_element() <= MAX_COORDINATE))
+            {
+                return Err(MeshError::Motion(format!(
+                    "frame {f}, point {} (counting from 1) is [{}, {}, {}]: allowed finite, each \
+                     in [-1e9, 1e9]",
+                    i + 1,
+                    v.x,
+                    v.y,
+                    v.z
+                )));
+            }
+        }
+        let s = if self.scale.is_finite() && self.scale > 0.0 {
+            self.scale
+        } else {
+            1.0
+        };
+        self.deform = Some(Arc::new(Deform::new(
+            &self.vertices,
+            &self.triangles,
+            s,
+            motion,
+        )));
+        Ok(self)
+    }
+
+    /// The motion of the mesh's points, if it deforms.
+    pub fn motion(&self) -> Option<&PointMotion> {
+        self.deform.as_deref().map(|d| &d.motion)
+    }
+
+    /// Whether the mesh's points move (scene `sequence` or `cache`).
+    pub fn is_deforming(&self) -> bool {
+        self.deform.is_some()
+    }
+
+    /// The deformation, if the mesh deforms.
+    pub fn deform(&self) -> Option<&Deform> {
+        self.deform.as_deref()
+    }
+
+    /// A copy of the mesh deformed as it is at time `t` (s); itself for a mesh that does not
+    /// deform.
+    pub fn at_time(&self, t: Real) -> Self {
+        let mut m = self.clone();
+        if let Some(d) = &self.deform {
+            m.pose = Some(d.pose(t));
+        }
+        m
+    }
+
+    /// The poses over the step from `t` to `t + dt` (s), for a deforming mesh.
+    pub fn sweep(&self, t: Real, dt: Real) -> Option<Sweep> {
+        let d = self.deform.as_ref()?;
+        let (start, end) = (d.pose(t), d.pose(t + dt));
+        let max_move = d.max_move(&start, &end);
+        Some(Sweep {
+            start,
+            end,
+            max_move,
+        })
+    }
+
+    /// The contact of a particle moving from `prev` to `p` (world at the mesh's scene
+    /// placement, m) with the deforming mesh over the step `sweep`, within `reach` (m): in the
+    /// surface's frame (see [`super::deform`]); positions, normal and move in the same frame.
+    pub fn swept_contact(
+        &self,
+        sweep: &Sweep,
+        prev: Vec3,
+        p: Vec3,
+        reach: Real,
+    ) -> Option<SweptContact> {
+        let d = self.deform.as_ref()?;
+        let c = d.swept_contact(
+            &sweep.start,
+            &sweep.end,
+            sweep.max_move,
+            self.local(prev),
+            self.local(p),
+            reach,
+        )?;
+        Some(SweptContact {
+            distance: c.distance,
+            normal: self.matrix * c.normal,
+            from: self.position + self.matrix * c.from,
+            moved: self.matrix * c.moved,
+        })
+    }
+
+    /// Where the surface near `p` (world at the mesh's scene placement, m) is carried over the
+    /// step `sweep`: `p` carried by the triangle nearest it within `reach` (m), or `p` itself
+    /// when none is that near.
+    pub fn carry(&self, sweep: &Sweep, p: Vec3, reach: Real) -> Vec3 {
+        match &self.deform {
+            Some(d) => d
+                .carry(&sweep.start, &sweep.end, self.local(p), reach)
+                .map_or(p, |q| self.position + self.matrix * q),
+            None => p,
+        }
     }
 
     /// The content digest of the model as read ([`mesh_digest`] of its vertices and
@@ -263,10 +407,25 @@ impl Mesh {
         self.matrix.transpose() * (p - self.position)
     }
 
+    /// A point where the scene puts the mesh (m) in the mesh's own frame, scaled to metres
+    /// (the frame of its [`Deform`]'s poses).
+    pub fn to_mesh_frame(&self, p: Vec3) -> Vec3 {
+        self.local(p)
+    }
+
+    /// A point of the mesh's own frame, scaled to metres, where the scene puts the mesh (m).
+    pub fn from_mesh_frame(&self, q: Vec3) -> Vec3 {
+        self.position + self.matrix * q
+    }
+
     /// Signed distance of `p` from the surface (m; negative inside a closed mesh) and the unit
     /// normal pointing from the surface towards `p` (out of a closed mesh).
     pub fn distance(&self, p: Vec3) -> (Real, Vec3) {
         let q = self.local(p);
+        if let (Some(d), Some(pose)) = (&self.deform, &self.pose) {
+            let (dist, n) = d.distance(pose, q);
+            return (dist, self.matrix * n);
+        }
         let (proj, (tri, _)) = self
             .query
             .project_local_point_and_get_location(pv(q), false);
@@ -281,6 +440,10 @@ impl Mesh {
     pub fn contact(&self, prev: Vec3, p: Vec3, reach: Real) -> Option<(Real, Vec3)> {
         let q = self.local(p);
         let q0 = self.local(prev);
+        if let (Some(d), Some(pose)) = (&self.deform, &self.pose) {
+            let c = d.swept_contact(pose, pose, 0.0, q0, q, reach)?;
+            return Some((c.distance, self.matrix * c.normal));
+        }
         let step = q - q0;
         let len = step.length();
         let (proj, (tri, _)) = self
@@ -337,11 +500,18 @@ impl Mesh {
 
     /// The mesh in the world for drawing: placed vertices, area-weighted vertex normals.
     pub fn surface_mesh(&self) -> SurfaceMesh {
-        let positions: Vec<Vec3> = self
-            .vertices
-            .iter()
-            .map(|v| self.position + self.matrix * (*v * self.scale))
-            .collect();
+        let positions: Vec<Vec3> = match (&self.deform, &self.pose) {
+            (Some(d), Some(pose)) => d
+                .file_points(pose)
+                .into_iter()
+                .map(|v| self.position + self.matrix * v)
+                .collect(),
+            _ => self
+                .vertices
+                .iter()
+                .map(|v| self.position + self.matrix * (*v * self.scale))
+                .collect(),
+        };
         let mut triangles = self.triangles.to_vec();
         // Draw a closed mesh wound outwards, as the query uses it.
         let flip = self.closed && signed_volume(&positions, &triangles) < 0.0;
@@ -385,6 +555,22 @@ impl Mesh {
                 value: crate::math::num(s),
                 range: format!("(0, {MAX_SCALE:e}]"),
             });
+        }
+        if let Some(m) = self.motion() {
+            if !(m.frame_rate.is_finite() && (1e-3..=1e5).contains(&m.frame_rate)) {
+                return Err(ConfigError::OutOfRange {
+                    key: key("frame_rate"),
+                    value: crate::math::num(m.frame_rate),
+                    range: "[1e-3, 1e5] 1/s".into(),
+                });
+            }
+            if !(m.start.is_finite() && m.start.abs() <= 1e6) {
+                return Err(ConfigError::OutOfRange {
+                    key: key("start"),
+                    value: crate::math::num(m.start),
+                    range: "[-1e6, 1e6] s".into(),
+                });
+            }
         }
         Ok(())
     }
@@ -435,19 +621,7 @@ fn build_query(
     if tris.is_empty() {
         return Err(MeshError::Degenerate);
     }
-    // Closed: each directed edge once, and its reverse once.
-    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
-    for t in &tris {
-        for k in 0..3 {
-            *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
-        }
-    }
-    let mut closed = edges
-        .iter()
-        .all(|(&(a, b), &count)| count == 1 && edges.get(&(b, a)) == Some(&1));
-    if closed {
-        closed = orient_parts(&merged, &mut tris);
-    }
+    let closed = closed_and_oriented(&merged, &mut tris);
     let flags = if closed {
         TriMeshFlags::ORIENTED
     } else {
@@ -457,6 +631,22 @@ fn build_query(
     TriMesh::with_flags(points, tris, flags)
         .map(|m| (m, closed))
         .map_err(|_| MeshError::Degenerate)
+}
+
+/// Whether the mesh of `points` and `tris` (duplicates merged) is closed (each directed edge
+/// once, and its reverse once) and a solid; a closed mesh's parts are turned outwards
+/// ([`orient_parts`]).
+pub(crate) fn closed_and_oriented(points: &[Vec3], tris: &mut [[u32; 3]]) -> bool {
+    let mut edges: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in tris.iter() {
+        for k in 0..3 {
+            *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    let closed = edges
+        .iter()
+        .all(|(&(a, b), &count)| count == 1 && edges.get(&(b, a)) == Some(&1));
+    closed && orient_parts(points, tris)
 }
 
 /// Turns every connected part of a closed mesh (`tris`, consistently wound within each part)
@@ -580,6 +770,16 @@ struct MeshRepr {
     vertices: Vec<[Real; 3]>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     triangles: Vec<[u32; 3]>,
+    /// A deforming mesh's point motion, described (its frames are not in `run.json`: a mesh
+    /// read back from it is the rest mesh).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    sequence: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    cache: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    frame_rate: Option<Real>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    start: Option<Real>,
 }
 
 #[cfg(feature = "serde")]
@@ -605,7 +805,18 @@ impl TryFrom<MeshRepr> for Mesh {
 #[cfg(feature = "serde")]
 impl From<Mesh> for MeshRepr {
     fn from(m: Mesh) -> Self {
+        use super::deform::PointSource;
+        let motion = m.motion().cloned();
+        let (sequence, cache) = match motion.as_ref().map(|mo| &mo.source) {
+            Some(PointSource::Sequence(s)) => (Some(s.clone()), None),
+            Some(PointSource::Cache(c)) => (None, Some(c.clone())),
+            None => (None, None),
+        };
         Self {
+            sequence,
+            cache,
+            frame_rate: motion.as_ref().map(|mo| mo.frame_rate),
+            start: motion.as_ref().map(|mo| mo.start),
             file: m.file,
             position: m.position.to_array(),
             rotation: m.rotation.to_array(),

@@ -19,6 +19,7 @@
 
 pub mod contact;
 pub mod cuboid;
+pub mod deform;
 pub mod mesh;
 pub mod motion;
 pub mod plane;
@@ -27,6 +28,7 @@ pub mod sphere;
 pub mod sticking;
 
 pub use cuboid::Cuboid;
+pub use deform::{PointMotion, PointSource};
 pub use mesh::{Mesh, MeshError};
 pub use motion::{Key, Placement};
 pub use plane::Plane;
@@ -175,9 +177,14 @@ impl Collider {
         }
     }
 
-    /// Whether the collider moves (has keys).
+    /// Whether the collider moves (has keys, or is a mesh whose points move).
     pub fn is_moving(&self) -> bool {
-        !self.keys.is_empty()
+        !self.keys.is_empty() || self.is_deforming()
+    }
+
+    /// Whether the collider is a mesh whose points move (scene `sequence` or `cache`).
+    pub fn is_deforming(&self) -> bool {
+        matches!(&self.shape, Shape::Mesh(m) if m.is_deforming())
     }
 
     /// The shape's reference point for its motion (m) and its scene rotation (degrees): a
@@ -201,8 +208,13 @@ impl Collider {
     /// queries ([`Collider::distance`], [`Collider::surface`]) answer for its placement then.
     pub fn at(&self, t: Real) -> Self {
         let mut c = self.clone();
-        if self.is_moving() {
+        if !self.keys.is_empty() {
             c.placement = Some(self.placement_at(t));
+        }
+        if let Shape::Mesh(m) = &self.shape
+            && m.is_deforming()
+        {
+            c.shape = Shape::Mesh(m.at_time(t));
         }
         c
     }

@@ -183,6 +183,9 @@ pub enum GrabMotion {
         /// Speed limit, m/s (> 0); keeps a mouse jump from tearing the cloth in one step.
         max_speed: Real,
     },
+    /// Follows a point of a collider (an `[[attach]]`; its target is placed by the step, which
+    /// knows the colliders).
+    Attached(super::Attachment),
 }
 
 /// A grab acting on the cloth.
@@ -234,6 +237,7 @@ impl Grab {
                     *target
                 })
             }
+            GrabMotion::Attached(_) => Some(x),
         }
     }
 }

@@ -1,8 +1,10 @@
 //! The user's input (thesis 3.2 step 1, fig. 4.1): grabs and their targets, and the air
 //! switch (the demo's button 1).
 
+pub mod attach;
 mod grab;
 
+pub use attach::{AttachSpec, Attachment, Binding};
 pub use grab::{Grab, GrabKey, GrabMotion, GrabPick, GrabSpec};
 
 use crate::math::{Real, Soa, Vec3};
@@ -51,13 +53,23 @@ impl Control {
     /// Phase 1 of a step (thesis 3.2 step 1): every grab's target at `t_next` (s) given the
     /// current positions `x`, for a step of `dt` s, and which particles the hands hold during
     /// the step (every phase after this one, the air's prediction included, sees them held).
-    pub(crate) fn begin_step(&mut self, x: &Soa, t_next: Real, dt: Real) {
+    /// An attachment's target is its point at `t_next` by `attached`.
+    pub(crate) fn begin_step(
+        &mut self,
+        x: &Soa,
+        t_next: Real,
+        dt: Real,
+        attached: &dyn Fn(&Attachment, Real) -> Vec3,
+    ) {
         self.targets.clear();
         for g in &mut self.grabs {
             self.held[g.particle] = false;
         }
         for g in &mut self.grabs {
-            let target = g.target(t_next, x.get(g.particle), dt);
+            let target = match &g.motion {
+                GrabMotion::Attached(a) => Some(attached(a, t_next)),
+                _ => g.target(t_next, x.get(g.particle), dt),
+            };
             self.targets.push(target);
         }
         for (g, t) in self.grabs.iter().zip(&self.targets) {

@@ -48,6 +48,8 @@ pub struct SimConfig {
     pub colliders: Vec<Collider>,
     /// Keyframed grabs.
     pub grabs: Vec<GrabSpec>,
+    /// Particles bound to colliders (scene `[[attach]]`).
+    pub attachments: Vec<crate::control::AttachSpec>,
 }
 
 fn check_range(key: &str, value: Real, lo: Real, hi: Real) -> Result<(), ConfigError> {
@@ -290,6 +292,9 @@ impl SimConfig {
         }
         for (i, g) in self.grabs.iter().enumerate() {
             g.validate(i, c.resolution)?;
+        }
+        for (i, a) in self.attachments.iter().enumerate() {
+            a.validate(i, self.colliders.len())?;
         }
         Ok(())
     }

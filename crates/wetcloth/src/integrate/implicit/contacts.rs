@@ -144,6 +144,12 @@ pub(super) fn stopped_slide(
     }
 }
 
+/// How far from a deforming mesh (m) a point still sees the surface's own velocity (the nearest
+/// triangle's); beyond it the surface is still there, which no contact of the step can tell
+/// apart: a particle that far cannot reach the surface within a step at the speeds a body
+/// moves (10 cm in a step).
+const DEFORM_VELOCITY_REACH: Real = 0.1;
+
 /// A collider as one step's contacts see it: where it is at the step's start (the collider
 /// itself if still) and, if it moves, where it is at both ends of the step.
 #[derive(Clone, Debug)]
@@ -169,6 +175,9 @@ impl Surface {
     /// The velocity (m/s) over the step of `dt` s of the surface point at `x` (zero if still).
     pub(super) fn velocity(&self, x: Vec3, dt: Real) -> Vec3 {
         match &self.frames {
+            Some(f) if f.sweep.is_some() => {
+                (f.carry(&self.collider, x, DEFORM_VELOCITY_REACH) - x) / dt
+            }
             Some(f) => (f.end.to_world(f.start.to_rest(x)) - x) / dt,
             None => Vec3::ZERO,
         }
@@ -179,6 +188,7 @@ impl Surface {
     /// at the step's end.
     pub(super) fn contact(&self, x: Vec3, to: Vec3, radius: Real) -> Option<(Real, Vec3)> {
         match &self.frames {
+            Some(f) if f.sweep.is_some() => f.contact(&self.collider, x, to, radius),
             Some(f) => {
                 let (d, n) =
                     self.collider
