@@ -73,9 +73,9 @@ pub fn angle_and_gradient(x: &Soa, h: Hinge) -> (Real, [Vec3; 4]) {
     if le == 0.0 || q1 == 0.0 || q2 == 0.0 {
         return (0.0, [Vec3::ZERO; 4]);
     }
-    let (u1, u2) = (n1 / q1.sqrt(), n2 / q2.sqrt());
-    let theta = (u1.cross(u2).dot(e / le)).atan2(u1.dot(u2));
     let ue = e / le;
+    // atan2 is scale-free: the unnormalised normals give the same angle.
+    let theta = (n1.cross(n2).dot(ue)).atan2(n1.dot(n2));
     // Bridson, Marino and Fedkiw (2003): the four bending modes are the angle's gradient.
     let gc = n1 * (le / q1);
     let gd = n2 * (le / q2);
