@@ -172,7 +172,7 @@ impl Simulation {
     #[getter]
     fn resolution(&self) -> Option<(usize, usize)> {
         let g = self.lock();
-        g.sim.model().grid.as_ref().map(|grid| (grid.nx, grid.nz))
+        g.sim.model().grid_size.map(|[nx, nz]| (nx, nz))
     }
 
     /// Particle positions, m: a read-only `(n, 3)` float64 copy (it does not follow the
@@ -225,7 +225,7 @@ impl Simulation {
     fn grab(&self, particle: &Bound<'_, PyAny>, target: [f64; 3]) -> PyResult<()> {
         let mut g = self.lock();
         let n = g.sim.particle_count();
-        let grid = g.sim.model().grid.as_ref().map(|grid| (grid.nx, grid.nz));
+        let grid = g.sim.model().grid_size.map(|[nx, nz]| (nx, nz));
         let index = match particle.extract::<usize>() {
             Ok(k) if k < n => k,
             Ok(k) => {
@@ -280,7 +280,7 @@ impl Simulation {
     #[pyo3(signature = (particle = None))]
     fn release(&self, particle: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
         let mut g = self.lock();
-        let nx = g.sim.model().grid.as_ref().map(|grid| grid.nx);
+        let nx = g.sim.model().grid_size.map(|[nx, _]| nx);
         let index = match particle {
             None => None,
             Some(p) => Some(match p.extract::<usize>() {

@@ -141,6 +141,14 @@ impl ClothLayout {
                 spacing: c.size[0] / (c.resolution[0].max(2) - 1) as f64,
                 file: String::new(),
             },
+            (None, _) if c.mesh.is_none() => Self {
+                // The grid run as a mesh of its triangles (`model = "membrane"`).
+                grid: Some(c.resolution),
+                particles: model.len(),
+                indices,
+                spacing: c.size[0] / (c.resolution[0].max(2) - 1) as f64,
+                file: String::new(),
+            },
             (None, mesh) => {
                 let spacing = mesh.as_ref().map_or(0.0, |m| {
                     let sum: f64 = m

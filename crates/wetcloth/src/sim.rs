@@ -72,6 +72,16 @@ impl Simulation {
             let held = match (&g.pick, &model.grid) {
                 (Some(pick), _) => pick.particles(&rest),
                 (None, Some(grid)) => vec![grid.index(g.particle[0], g.particle[1])],
+                // The built-in grid run as a mesh (`model = "membrane"`) keeps its numbering.
+                (None, None) if config.cloth.mesh.is_none() => {
+                    let [nx, nz] = config.cloth.resolution;
+                    let [i, j] = g.particle;
+                    if i < nx && j < nz {
+                        vec![j * nx + i]
+                    } else {
+                        Vec::new()
+                    }
+                }
                 (None, None) => Vec::new(),
             };
             if held.is_empty() {

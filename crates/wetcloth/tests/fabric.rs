@@ -863,3 +863,23 @@ fn a_cusick_disc_drapes_alike_on_regular_and_irregular_meshes() {
     );
     assert!(soft < regular - 0.02, "{soft} vs {regular}");
 }
+
+/// The grid run as a mesh of its triangles (`model = "membrane"`) keeps the grid's numbering:
+/// `particle = [i, j]` holds particle `j * nx + i`.
+#[test]
+fn the_membrane_grid_keeps_the_grids_particle_numbering() {
+    let mut cfg = SimConfig::thesis_demo();
+    cfg.cloth.resolution = [9, 7];
+    cfg.cloth.model = ClothModel::Membrane;
+    cfg.grabs = vec![GrabSpec::lift([3, 5], 0.0, 0.01, 0.01)];
+    let mut sim = Simulation::new(cfg).unwrap();
+    assert!(sim.model().grid.is_none() && sim.model().fabric.is_some());
+    assert_eq!(sim.model().grid_size, Some([9, 7]));
+    let before = sim.positions().get(5 * 9 + 3);
+    run(&mut sim, 0.02);
+    let after = sim.positions().get(5 * 9 + 3);
+    assert!(
+        (after.y - before.y - 0.01).abs() < 1e-9,
+        "{before} -> {after}"
+    );
+}

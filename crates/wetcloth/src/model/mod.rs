@@ -59,6 +59,9 @@ pub struct Model {
     pub mesh_springs: Option<Arc<MeshSprings>>,
     /// The membrane and bending elements of `model = "membrane"`; `None` for the springs.
     pub fabric: Option<Arc<Fabric>>,
+    /// The built-in grid's particles along x and z (particle `(i, j)` is `j * nx + i`), also
+    /// when it runs as a mesh of its triangles (`model = "membrane"`); `None` for a mesh file.
+    pub grid_size: Option<[usize; 2]>,
     /// Each particle's area S, m^2, where particles differ (a mesh cloth: a third of each
     /// triangle around it); `None` when every particle has [`Model::area_per_particle`].
     pub areas: Option<Vec<Real>>,
@@ -282,6 +285,7 @@ impl Model {
             mesh,
             mesh_springs,
             fabric,
+            grid_size: cloth.mesh.is_none().then_some(cloth.resolution),
         }
     }
 
