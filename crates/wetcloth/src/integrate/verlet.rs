@@ -88,6 +88,10 @@ struct StepConsts<'a> {
     /// Summed magnitude of the pressure force's work during the step, pJ, row by row (an
     /// integer, as `collider_work`).
     air_work: &'a std::sync::atomic::AtomicU64,
+    /// Whether to measure the pressure force's work: with a strain limit, whose projections
+    /// let the thesis' pressure force (along each particle's normal, not the volume's
+    /// gradient) do more work than `P dV` bounds; without one the audit's `P V` covers it.
+    measure_air_work: bool,
     mass: Real,
     gravity: Vec3,
     /// `damping * m / dt`, kg/s^2: the damping force is `-damp * (x - x_prev)`.
@@ -204,6 +208,7 @@ impl Verlet {
             frames: &frames,
             collider_work: &collider_work,
             air_work: &air_work,
+            measure_air_work: model.strain_limit > 0.0,
             mass,
             gravity: model.gravity,
             damp: model.damping * mass / dt,
@@ -506,11 +511,12 @@ fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, scratch: &mut RowP
                 add_pressure(c, j, x, f, 1.0);
                 // The move before the pressure is kept, so that the pressure's work can be
                 // measured from what it added to it.
-                if c.pressure != 0.0 {
+                let measure = c.pressure != 0.0 && c.measure_air_work;
+                if measure {
                     keep_row(&mut scratch.pressure, next.as_ref());
                 }
                 add_pressure(c, j, x, next, c.step_per_force);
-                if c.pressure != 0.0 {
+                if measure {
                     // The pressure's move, as a force: what it added over dt^2 / m.
                     let nx = c.grid.nx;
                     let [tx, ty, tz] = &mut scratch.pressure;
@@ -548,7 +554,7 @@ fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, scratch: &mut RowP
             }
         }
         contact_row(c, j, here, next, contact);
-        if c.pressure != 0.0 {
+        if c.pressure != 0.0 && c.measure_air_work {
             // The pressure force is in the row scratch: its work over the whole move.
             let nx = c.grid.nx;
             let [tx, ty, tz] = &scratch.pressure;
@@ -682,7 +688,7 @@ fn step_row(
 
     // Pressure force (eq. 3.7): (P_b - P_a) S N; the forces before it are kept in the row
     // scratch, so that its work can be measured.
-    let acts = c.pressure != 0.0;
+    let acts = c.pressure != 0.0 && c.measure_air_work;
     if acts {
         keep_row(&mut springs.pressure, force.as_ref());
     }
