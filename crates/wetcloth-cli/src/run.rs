@@ -115,6 +115,8 @@ struct Start {
     /// that of `grabs.csv` (`None` for a checkpoint of a version that wrote none: it starts
     /// again from the resumed frame), and the checkpoint it continues from (for `run.json`).
     resumed: Option<(u64, u64, Option<u64>, CheckpointNote)>,
+    /// For a resumed run with attachments: the byte length to cut `attachments.csv` back to.
+    attach_cut: Option<u64>,
 }
 
 /// Where the last checkpoint is and how far it had got: the `checkpoint` object of `run.json`
@@ -181,6 +183,7 @@ pub fn run(args: &RunArgs, quiet: bool) -> Result<(), CliError> {
         time: 0.0,
         every: args.checkpoint_every,
         resumed: None,
+        attach_cut: None,
     };
     bake(args, &scene, &dir, sim, start, quiet)
 }
@@ -287,12 +290,20 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
             last + 1
         )));
     }
-    let (csv_len, pockets_len, grabs_len) = match saved.appended.as_slice() {
+    let (csv_len, pockets_len, grabs_len, attach_len) = match saved.appended.as_slice() {
         [(a, m), (b, p), (c, g)] if a == "metrics.csv" && b == "pockets.csv" && c == GRABS_CSV => {
-            (*m, *p, Some(*g))
+            (*m, *p, Some(*g), None)
+        }
+        [(a, m), (b, p), (c, g), (d, t)]
+            if a == "metrics.csv"
+                && b == "pockets.csv"
+                && c == GRABS_CSV
+                && d == ATTACHMENTS_CSV =>
+        {
+            (*m, *p, Some(*g), Some(*t))
         }
         // Taken by a version that wrote no grabs.csv.
-        [(a, m), (b, p)] if a == "metrics.csv" && b == "pockets.csv" => (*m, *p, None),
+        [(a, m), (b, p)] if a == "metrics.csv" && b == "pockets.csv" => (*m, *p, None, None),
         _ => {
             return Err(damaged(
                 "it does not list metrics.csv, pockets.csv and grabs.csv".into(),
@@ -303,6 +314,7 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
         ("metrics.csv", Some(csv_len)),
         ("pockets.csv", Some(pockets_len)),
         (GRABS_CSV, grabs_len),
+        (ATTACHMENTS_CSV, attach_len),
     ];
     for (name, len) in appended.into_iter().filter_map(|(n, l)| l.map(|l| (n, l))) {
         let path = dir.join(name);
@@ -336,6 +348,7 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
         time: saved.frame_time,
         every: saved.every,
         resumed: Some((csv_len, pockets_len, grabs_len, note)),
+        attach_cut: attach_len,
     };
     let sim = Simulation::restore(scene.config.clone(), saved.sim).map_err(|e| {
         CliError::Input(format!(
@@ -357,6 +370,9 @@ fn resume(args: &RunArgs, dir: &Path, quiet: bool) -> Result<(), CliError> {
 
 /// The name of the grab forces file in a run folder.
 const GRABS_CSV: &str = "grabs.csv";
+/// Each attachment's force on the cloth, one row per attachment per frame (written when the
+/// scene has `[[attach]]`).
+const ATTACHMENTS_CSV: &str = "attachments.csv";
 
 /// The scene of the run in `dir` (its `scene.toml` at `scene_path`, bytes `toml`), to resume
 /// it: a mesh cloth is read from the copy the run kept (`run.json`'s `mesh.copy`, checked
@@ -473,6 +489,8 @@ fn bake(
     let csv_path = dir.join("metrics.csv");
     let pockets_path = dir.join("pockets.csv");
     let grabs_path = dir.join(GRABS_CSV);
+    let attach_path = dir.join(ATTACHMENTS_CSV);
+    let attaches = !config.attachments.is_empty();
     let mut body = || -> Result<Ending, CliError> {
         prepare_dir(&frames_dir, start.frames)?;
         if start.resumed.is_none() {
@@ -506,6 +524,19 @@ fn bake(
         let grabs_header = wetcloth_export::GRABS_CSV_HEADER.len() as u64 + 1;
         let mut grabs_csv = GrabsCsv::new(open_appended(&grabs_path, grabs_cut, grabs_header)?)
             .map_err(CliError::output(&grabs_path))?;
+        let mut attach_csv = if attaches {
+            let header = wetcloth_export::ATTACHMENTS_CSV_HEADER.len() as u64 + 1;
+            let cut = start.resumed.as_ref().and(start.attach_cut);
+            Some(
+                GrabsCsv::with_header(
+                    open_appended(&attach_path, cut, header)?,
+                    wetcloth_export::ATTACHMENTS_CSV_HEADER,
+                )
+                .map_err(CliError::output(&attach_path))?,
+            )
+        } else {
+            None
+        };
         let scene_digest = checkpoint::digest(
             &fs::read(dir.join("scene.toml")).map_err(CliError::output(dir.join("scene.toml")))?,
         );
@@ -521,6 +552,7 @@ fn bake(
                            csv: &mut MetricsCsv<Appended>,
                            pockets_csv: &mut PocketsCsv<Appended>,
                            grabs_csv: &mut GrabsCsv<Appended>,
+                           attach_csv: &mut Option<GrabsCsv<Appended>>,
                            k: u64|
          -> Result<(), CliError> {
             let metrics = sim.metrics();
@@ -543,6 +575,10 @@ fn bake(
             grabs_csv
                 .write_frame(k, sim.time(), &sim.grab_forces())
                 .map_err(CliError::output(&grabs_path))?;
+            if let Some(a) = attach_csv {
+                a.write_frame(k, sim.time(), &sim.attach_forces())
+                    .map_err(CliError::output(&attach_path))?;
+            }
             crate::pocket_labels::write_frame(&frames_dir, sim, k)?;
             if k == 0 {
                 wetcloth_export::write_rest_obj(&dir).map_err(|e| match e {
@@ -561,11 +597,17 @@ fn bake(
                     every: start.every,
                     frames,
                     frame_time,
-                    appended: vec![
-                        ("metrics.csv".into(), csv_len(&csv_path)?),
-                        ("pockets.csv".into(), csv_len(&pockets_path)?),
-                        (GRABS_CSV.into(), csv_len(&grabs_path)?),
-                    ],
+                    appended: {
+                        let mut files = vec![
+                            ("metrics.csv".into(), csv_len(&csv_path)?),
+                            ("pockets.csv".into(), csv_len(&pockets_path)?),
+                            (GRABS_CSV.into(), csv_len(&grabs_path)?),
+                        ];
+                        if attaches {
+                            files.push((ATTACHMENTS_CSV.into(), csv_len(&attach_path)?));
+                        }
+                        files
+                    },
                     inputs: checkpoint::inputs(&config),
                     sim: sim.checkpoint(),
                 };
@@ -627,7 +669,14 @@ fn bake(
                 frames: written,
                 dir: dir.clone(),
             })?;
-            write_frame(&sim, &mut csv, &mut pockets_csv, &mut grabs_csv, k)?;
+            write_frame(
+                &sim,
+                &mut csv,
+                &mut pockets_csv,
+                &mut grabs_csv,
+                &mut attach_csv,
+                k,
+            )?;
             (written, time) = (k + 1, sim.time());
             if k == last {
                 // Complete: run.json says so first, then the checkpoint goes (a kill in

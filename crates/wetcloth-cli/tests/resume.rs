@@ -124,6 +124,38 @@ const POCKETS_SCENE: &str = "name = \"resumable-pockets\"\n[simulation]\nduratio
     [[grab]]\nparticle = [7, 7]\n\
     keys = [{ time = 0.2, offset = [0, 0, 0] }, { time = 0.8, offset = [0, 0.01, 0] }]\n";
 
+/// A cloth hung from a box by an attachment while the box is carried sideways:
+/// attachments.csv and metrics.csv's attach_force must resume to the same bytes too.
+const ATTACH_SCENE: &str = "name = \"resumable-attach\"\n[simulation]\nduration = 1.0\n\
+    frame_rate = 40\ntime_step = 2e-4\n[cloth]\nresolution = [10, 10]\nsize = [0.1, 0.1]\n\
+    mass = 0.005\nposition = [0.0, 0.5, 0.0]\nself_collision = false\n[air]\nenabled = false\n\
+    [[collider]]\nshape = \"box\"\ncenter = [0.0, 0.5, -0.07]\nhalf_extents = [0.08, 0.01, 0.01]\n\
+    keys = [{ time = 0.0, offset = [0, 0, 0] }, { time = 1.0, offset = [0.05, 0, 0] }]\n\
+    [[attach]]\ncollider = 0\nwithin = { center = [0.0, 0.5, -0.05], half_size = [0.1, 0.01, 0.001] }\n";
+
+#[test]
+fn attachment_runs_killed_at_random_moments_resume_to_the_same_bytes() {
+    killed_runs_resume_to_the_same_bytes("killed-attach", ATTACH_SCENE);
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("cli-resume")
+        .join("killed-attach")
+        .join("run0");
+    let text = fs::read_to_string(out.join("attachments.csv")).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        rows[0],
+        "frame,time,attach,particles,force_x,force_y,force_z"
+    );
+    assert_eq!(rows.len(), 1 + 41, "one row per frame");
+    let fields: Vec<&str> = rows[5].split(',').collect();
+    assert_eq!(
+        (fields[0], fields[2], fields[3]),
+        ("4", "0", "10"),
+        "{}",
+        rows[5]
+    );
+}
+
 #[test]
 fn runs_killed_at_random_moments_resume_to_the_same_bytes() {
     killed_runs_resume_to_the_same_bytes("killed", SCENE);

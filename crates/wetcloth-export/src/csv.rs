@@ -6,8 +6,8 @@ use wetcloth::metrics::COLUMNS;
 
 /// The header of `metrics.csv`, without the line end: `frame` followed by
 /// [`wetcloth::metrics::COLUMNS`]. Units: frame number, s, m^3, Pa, J, ratio, ratio 0..1, m, N,
-/// m^3, count, J.
-pub const CSV_HEADER: &str = "frame,time,air_volume,air_pressure,kinetic_energy,max_stretch,contact_fraction,max_height,grab_force,trapped_air,pocket_count,elastic_energy";
+/// m^3, count, J, N.
+pub const CSV_HEADER: &str = "frame,time,air_volume,air_pressure,kinetic_energy,max_stretch,contact_fraction,max_height,grab_force,trapped_air,pocket_count,elastic_energy,attach_force";
 
 /// The header built from [`wetcloth::metrics::COLUMNS`] (equal to [`CSV_HEADER`]; a test keeps
 /// them in step).
@@ -118,6 +118,10 @@ impl<W: Write> PocketsCsv<W> {
 /// N, N.
 pub const GRABS_CSV_HEADER: &str = "frame,time,grab,particles,force_x,force_y,force_z";
 
+/// The header of `attachments.csv` (`[[attach]]`), without the line end: one row per
+/// attachment per frame, as `grabs.csv`'s.
+pub const ATTACHMENTS_CSV_HEADER: &str = "frame,time,attach,particles,force_x,force_y,force_z";
+
 /// Writes `grabs.csv`: the header on creation, then one row per scene grab (`[[grab]]`, by its
 /// 0-based index in the scene) per frame: how many particles it holds and its force on the
 /// cloth summed over them (N, the sum over grabs is `metrics.csv`'s `grab_force` as a
@@ -129,8 +133,13 @@ pub struct GrabsCsv<W: Write> {
 
 impl<W: Write> GrabsCsv<W> {
     /// Writes the header line to `w` and flushes it.
-    pub fn new(mut w: W) -> io::Result<Self> {
-        writeln!(w, "{GRABS_CSV_HEADER}")?;
+    pub fn new(w: W) -> io::Result<Self> {
+        Self::with_header(w, GRABS_CSV_HEADER)
+    }
+
+    /// The same form under another header (`attachments.csv`: [`ATTACHMENTS_CSV_HEADER`]).
+    pub fn with_header(mut w: W, header: &str) -> io::Result<Self> {
+        writeln!(w, "{header}")?;
         w.flush()?;
         Ok(Self { w })
     }
@@ -229,6 +238,7 @@ mod tests {
             trapped_air: 4e-4,
             pocket_count: 1.0,
             elastic_energy: 0.125,
+            attach_force: 0.5,
         };
         csv.write_row(7, &m).unwrap();
         assert_eq!(csv.rows(), 1);
@@ -237,7 +247,7 @@ mod tests {
         assert_eq!(lines[0], CSV_HEADER);
         assert_eq!(
             lines[1],
-            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5,0.0004,1,0.125"
+            "7,0.30000000000000004,1e-20,101325.0,0.0,-0.5,1.0,0.3333333333333333,2.5,0.0004,1,0.125,0.5"
         );
         let parsed: Vec<f64> = lines[1].split(',').map(|v| v.parse().unwrap()).collect();
         assert_eq!(parsed[1..], m.values());

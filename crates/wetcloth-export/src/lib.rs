@@ -44,7 +44,8 @@ pub use abc::AbcWriter;
 pub use atomic::{create_fresh, part_path, remove_if_present, write_atomically};
 pub use cache::{CacheFormat, CacheSpec, CacheWriter, Frame};
 pub use csv::{
-    CSV_HEADER, GRABS_CSV_HEADER, GrabsCsv, MetricsCsv, POCKETS_CSV_HEADER, PocketsCsv, csv_header,
+    ATTACHMENTS_CSV_HEADER, CSV_HEADER, GRABS_CSV_HEADER, GrabsCsv, MetricsCsv, POCKETS_CSV_HEADER,
+    PocketsCsv, csv_header,
 };
 pub use export::{
     ExportError, ExportJob, REST_OBJ, RunFolder, export_run, read_run_folder, write_rest_obj,

@@ -101,7 +101,7 @@ pub fn parse_metrics(text: &str, path: &Path) -> Result<Metrics, RenderError> {
     // `pocket_count` and `elastic_energy` came later: a file without them still plots.
     for c in COLUMNS
         .into_iter()
-        .filter(|c| *c != "pocket_count" && *c != "elastic_energy")
+        .filter(|c| !matches!(*c, "pocket_count" | "elastic_energy" | "attach_force"))
     {
         if !names.contains(&c) {
             return Err(err(
@@ -382,7 +382,7 @@ mod tests {
             let v = 2e-4 * (1.0 - (-t).exp());
             let p = 101_325.0 * 4e-4 / (4e-4 + v);
             s += &format!(
-                "{f},{t},{v},{p},{},{},{},{},{},{},1,0.001\n",
+                "{f},{t},{v},{p},{},{},{},{},{},{},1,0.001,0\n",
                 1e-4 * (3.0 * t).sin().abs(),
                 0.02 * t,
                 1.0 - 0.3 * t.min(1.0),

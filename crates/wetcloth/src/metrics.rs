@@ -4,7 +4,7 @@ use crate::math::{Real, Soa};
 use crate::model::Layout;
 
 /// Column names of [`FrameMetrics::values`], in order, as in `metrics.csv` (after `frame`).
-pub const COLUMNS: [&str; 11] = [
+pub const COLUMNS: [&str; 12] = [
     "time",
     "air_volume",
     "air_pressure",
@@ -16,6 +16,7 @@ pub const COLUMNS: [&str; 11] = [
     "trapped_air",
     "pocket_count",
     "elastic_energy",
+    "attach_force",
 ];
 
 /// Measurements of one state.
@@ -47,6 +48,9 @@ pub struct FrameMetrics {
     /// Elastic energy stored in the cloth, J: its springs', or its membrane and bending
     /// elements' (`model = "membrane"`).
     pub elastic_energy: Real,
+    /// Magnitude of the summed force of all attachments (`[[attach]]`) on the cloth, N (0
+    /// without attachments; `grab_force` does not count them).
+    pub attach_force: Real,
 }
 
 impl FrameMetrics {
@@ -93,7 +97,7 @@ impl FrameMetrics {
     }
 
     /// The values in [`COLUMNS`] order.
-    pub fn values(&self) -> [Real; 11] {
+    pub fn values(&self) -> [Real; 12] {
         [
             self.time,
             self.air_volume,
@@ -106,6 +110,7 @@ impl FrameMetrics {
             self.trapped_air,
             self.pocket_count,
             self.elastic_energy,
+            self.attach_force,
         ]
     }
 }

@@ -589,6 +589,7 @@ impl Simulation {
             trapped_air: self.trapped_air(),
             pocket_count: self.pocket_count() as Real,
             elastic_energy: self.model.elastic_energy(self.positions()),
+            attach_force: self.attach_force().length(),
         }
     }
 

@@ -35,7 +35,7 @@ fn on_a_slope(n: usize, theta: Real, mu: Real) -> SimConfig {
 }
 
 /// The bits of every position and of every `metrics.csv` column of `sim`.
-fn state_bits(sim: &Simulation) -> (Vec<u64>, [u64; 11]) {
+fn state_bits(sim: &Simulation) -> (Vec<u64>, [u64; 12]) {
     let p = sim.positions();
     let bits =
         p.x.iter()
