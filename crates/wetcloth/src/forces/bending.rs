@@ -219,34 +219,18 @@ impl Bending {
         }
     }
 
+    /// Hinge `h`'s angle change from rest at positions `x` (rad, in (-pi, pi]) and the angle's
+    /// gradient (1/m).
+    #[inline]
+    pub fn angle_change(&self, x: &Soa, h: usize) -> (Real, [Vec3; 4]) {
+        let (theta, g) = angle_and_gradient(x, self.hinges[h]);
+        (wrap(theta - self.rest_angle[h]), g)
+    }
+
     /// Each hinge's angle change from rest at positions `x` into `out` (rad).
     pub fn angles_into(&self, x: &Soa, out: &mut Vec<(Real, [Vec3; 4])>) {
         out.clear();
-        out.extend(self.hinges.iter().zip(&self.rest_angle).map(|(&h, &r)| {
-            let (theta, g) = angle_and_gradient(x, h);
-            (wrap(theta - r), g)
-        }));
-    }
-
-    /// Each hinge's moment (J per rad: the energy's derivative by its angle) of the angle
-    /// changes `dtheta` into `out`, summed over the hinge's triangles in triangle order.
-    pub fn moments_into(&self, dtheta: &[(Real, [Vec3; 4])], out: &mut Vec<Real>) {
-        out.clear();
-        out.resize(self.hinges.len(), 0.0);
-        for (th, k) in self.tri_hinges.iter().zip(&self.coeff) {
-            let d = th.map(|h| {
-                if h == u32::MAX {
-                    0.0
-                } else {
-                    dtheta[h as usize].0
-                }
-            });
-            for i in 0..3 {
-                if th[i] != u32::MAX {
-                    out[th[i] as usize] += k[i][0] * d[0] + k[i][1] * d[1] + k[i][2] * d[2];
-                }
-            }
-        }
+        out.extend((0..self.hinges.len()).map(|h| self.angle_change(x, h)));
     }
 
     /// The elastic energy at positions `x`, J.

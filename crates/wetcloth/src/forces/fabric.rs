@@ -146,10 +146,7 @@ impl Fabric {
         };
         let nh = b.hinges.len();
         scratch.angles.resize(nh, (0.0, [Vec3::ZERO; 4]));
-        let angle = |h: usize| {
-            let (theta, g) = super::bending::angle_and_gradient(x, b.hinges[h]);
-            (wrap(theta - b.rest_angle[h]), g)
-        };
+        let angle = |h: usize| b.angle_change(x, h);
         if parallel && nh > 2 * PER_TASK {
             scratch
                 .angles

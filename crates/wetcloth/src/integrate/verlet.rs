@@ -518,13 +518,7 @@ fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, scratch: &mut RowP
                 add_pressure(c, j, x, next, c.step_per_force);
                 if measure {
                     // The pressure's move, as a force: what it added over dt^2 / m.
-                    let nx = c.grid.nx;
-                    let [tx, ty, tz] = &mut scratch.pressure;
-                    for i in 0..nx {
-                        tx[i] = (next.x[i] - tx[i]) / c.step_per_force;
-                        ty[i] = (next.y[i] - ty[i]) / c.step_per_force;
-                        tz[i] = (next.z[i] - tz[i]) / c.step_per_force;
-                    }
+                    added(&mut scratch.pressure, next.as_ref(), c.step_per_force);
                 }
             }
             Some(m) => {
@@ -556,24 +550,7 @@ fn finish_rows(c: &StepConsts<'_>, x: &Soa, b: Block<'_, '_>, scratch: &mut RowP
         contact_row(c, j, here, next, contact);
         if c.pressure != 0.0 && c.measure_air_work {
             // The pressure force is in the row scratch: its work over the whole move.
-            let nx = c.grid.nx;
-            let [tx, ty, tz] = &scratch.pressure;
-            let force = RowRef {
-                x: &tx[..nx],
-                y: &ty[..nx],
-                z: &tz[..nx],
-            };
-            let mut w = 0.0;
-            for i in 0..nx {
-                w += force.x[i] * (next.x[i] - here.x[i])
-                    + force.y[i] * (next.y[i] - here.y[i])
-                    + force.z[i] * (next.z[i] - here.z[i]);
-            }
-            let pj = (w.abs() * 1e12).round();
-            if pj.is_finite() && pj > 0.0 {
-                c.air_work
-                    .fetch_add(pj as u64, std::sync::atomic::Ordering::Relaxed);
-            }
+            add_air_work(c, &scratch.pressure, here, next.as_ref());
         }
     })
 }
@@ -698,14 +675,8 @@ fn step_row(
     contact_row(c, j, here, prev, contact);
     if acts {
         // The pressure force is what it added to the forces.
-        add_air_work(
-            c,
-            &springs.pressure,
-            force.as_ref(),
-            1.0,
-            here,
-            prev.as_ref(),
-        );
+        added(&mut springs.pressure, force.as_ref(), 1.0);
+        add_air_work(c, &springs.pressure, here, prev.as_ref());
     }
 }
 
@@ -718,26 +689,30 @@ fn keep_row(keep: &mut [Vec<Real>; 3], row: RowRef<'_>) {
     keep[2][..n].copy_from_slice(row.z);
 }
 
-/// Adds the magnitude of the pressure force's work over a row's move from `here` to `next` to
-/// `c.air_work` (pJ): the force is `(after - before) / scale` (N; `before` the row as kept
-/// before the pressure was added, `after` with it).
+/// Turns the row `kept` by [`keep_row`] into what was added to it since: `(after - kept) /
+/// scale` (the pressure force, N, from the forces or, with `scale = dt^2 / m`, from the move).
 #[inline(always)]
-fn add_air_work(
-    c: &StepConsts<'_>,
-    before: &[Vec<Real>; 3],
-    after: RowRef<'_>,
-    scale: Real,
-    here: RowRef<'_>,
-    next: RowRef<'_>,
-) {
+fn added(kept: &mut [Vec<Real>; 3], after: RowRef<'_>, scale: Real) {
+    let n = after.x.len();
+    for (k, a) in kept.iter_mut().zip([after.x, after.y, after.z]) {
+        for i in 0..n {
+            k[i] = (a[i] - k[i]) / scale;
+        }
+    }
+}
+
+/// Adds the magnitude of the work of the row's pressure force `force` (N) over its move from
+/// `here` to `next` to `c.air_work` (pJ).
+#[inline(always)]
+fn add_air_work(c: &StepConsts<'_>, force: &[Vec<Real>; 3], here: RowRef<'_>, next: RowRef<'_>) {
     let n = here.x.len();
     let mut w = 0.0;
     for i in 0..n {
-        w += (after.x[i] - before[0][i]) * (next.x[i] - here.x[i])
-            + (after.y[i] - before[1][i]) * (next.y[i] - here.y[i])
-            + (after.z[i] - before[2][i]) * (next.z[i] - here.z[i]);
+        w += force[0][i] * (next.x[i] - here.x[i])
+            + force[1][i] * (next.y[i] - here.y[i])
+            + force[2][i] * (next.z[i] - here.z[i]);
     }
-    let pj = (w.abs() / scale * 1e12).round();
+    let pj = (w.abs() * 1e12).round();
     if pj.is_finite() && pj > 0.0 {
         c.air_work
             .fetch_add(pj as u64, std::sync::atomic::Ordering::Relaxed);
