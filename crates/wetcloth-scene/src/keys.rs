@@ -52,7 +52,10 @@ pub const CLOTH: &[&str] = &[
     "bending",
     "density",
     "material",
+    "seam",
 ];
+/// Keys of a `[[cloth.seam]]`.
+pub const SEAM: &[&str] = &["a", "b", "stiffness", "max_force"];
 /// Keys of `[cloth.membrane]`.
 pub const MEMBRANE: &[&str] = &["warp", "weft", "shear", "poisson"];
 /// Keys of `[cloth.bending]`.
@@ -126,6 +129,7 @@ enum Place {
     Bending,
     Attach,
     AttachWithin,
+    Seam,
 }
 
 impl Place {
@@ -146,6 +150,7 @@ impl Place {
             Place::Bending => BENDING,
             Place::Attach => ATTACH,
             Place::AttachWithin => WITHIN,
+            Place::Seam => SEAM,
         }
     }
 
@@ -162,6 +167,7 @@ impl Place {
             (Place::Cloth, "paint") => Some(Place::Paint),
             (Place::Cloth, "membrane") => Some(Place::Membrane),
             (Place::Cloth, "bending") => Some(Place::Bending),
+            (Place::Cloth, "seam") => Some(Place::Seam),
             (Place::Air, "pocket") => Some(Place::Pocket),
             (Place::Collider, "keys") => Some(Place::ColliderKey),
             (Place::Top, "attach") => Some(Place::Attach),
@@ -187,11 +193,12 @@ impl Place {
             Place::Bending => "cloth.bending.",
             Place::Attach => "attach[].",
             Place::AttachWithin => "attach[].within.",
+            Place::Seam => "cloth.seam[].",
         }
     }
 }
 
-const ALL_PLACES: [Place; 15] = [
+const ALL_PLACES: [Place; 16] = [
     Place::Top,
     Place::Simulation,
     Place::Cloth,
@@ -207,6 +214,7 @@ const ALL_PLACES: [Place; 15] = [
     Place::Bending,
     Place::Attach,
     Place::AttachWithin,
+    Place::Seam,
 ];
 
 /// An unknown key found in a document.

@@ -92,6 +92,16 @@ struct RawCloth {
     bending: Option<RawBending>,
     density: Option<Spanned<Real>>,
     material: Option<Spanned<String>>,
+    seam: Option<Vec<RawSeam>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSeam {
+    a: Vec<u32>,
+    b: Vec<u32>,
+    stiffness: Option<Real>,
+    max_force: Option<Real>,
 }
 
 #[derive(Deserialize)]
@@ -514,6 +524,18 @@ fn convert(
                     });
                 }
             }
+        }
+        for s in c.seam.unwrap_or_default() {
+            d.seams.push(wetcloth::forces::seam::SeamSpec {
+                a: s.a,
+                b: s.b,
+                stiffness: s
+                    .stiffness
+                    .unwrap_or(wetcloth::forces::seam::SeamSpec::DEFAULT_STIFFNESS),
+                max_force: s
+                    .max_force
+                    .unwrap_or(wetcloth::forces::seam::SeamSpec::DEFAULT_MAX_FORCE),
+            });
         }
         let on_mesh = d.mesh.is_some();
         for (i, p) in c.paint.unwrap_or_default().into_iter().enumerate() {

@@ -159,6 +159,18 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
         }
         let _ = writeln!(o, "wetness = {}", f(p.wetness));
     }
+    for s in &c.seams {
+        let list = |l: &[u32]| {
+            let items: Vec<String> = l.iter().map(u32::to_string).collect();
+            format!("[{}]", items.join(", "))
+        };
+        let _ = writeln!(o);
+        let _ = writeln!(o, "[[cloth.seam]]");
+        let _ = writeln!(o, "a = {}", list(&s.a));
+        let _ = writeln!(o, "b = {}", list(&s.b));
+        let _ = writeln!(o, "stiffness = {}  # N/m per pair", f(s.stiffness));
+        let _ = writeln!(o, "max_force = {}  # N per pair", f(s.max_force));
+    }
     let _ = writeln!(o);
     let _ = writeln!(o, "[air]");
     let _ = writeln!(o, "enabled = {}", a.enabled);

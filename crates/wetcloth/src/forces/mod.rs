@@ -6,6 +6,7 @@
 //! | springs | [`spring_force`] | `spring::RowSprings`, `spring::add_row` | eq. 3.6 |
 //! | gravity and velocity damping | [`gravity::weight_and_damping`] | `gravity::set_row` | eq. 3.3 |
 //! | springs on a mesh cloth | `mesh_spring::MeshSprings::force` | `MeshSprings::force_on` | eq. 3.6 |
+//! | seams (zero-length springs between panels) | `seam::Seams::force` | `Seams::add_forces` | (garments) |
 //! | air pressure | [`pressure_force`] | `pressure::add_row` | eq. 3.7 (physical sign) |
 //!
 //! The normal force and friction (eq. 3.4-3.5) are position corrections, in
@@ -21,6 +22,7 @@ pub mod gravity;
 pub mod membrane;
 pub mod mesh_spring;
 pub mod pressure;
+pub mod seam;
 pub mod spring;
 
 pub use pressure::pressure_force;

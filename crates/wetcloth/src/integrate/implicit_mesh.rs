@@ -59,6 +59,8 @@ pub(crate) struct ImplicitMesh {
     tri_slots: Vec<[[u32; 3]; 3]>,
     /// For each hinge, where its vertices' blocks are in `a.val`.
     hinge_slots: Vec<[[u32; 4]; 4]>,
+    /// For each seam pair, where its blocks `(a, b)` and `(b, a)` are in `a.val`.
+    seam_slots: Vec<[u32; 2]>,
     budget: Option<SolveBudget>,
     rhs: Soa,
     v: Soa,
@@ -100,13 +102,21 @@ impl ImplicitMesh {
             return Self::default();
         };
         let n = model.len();
+        let seam_pairs = model.seams.as_ref().map_or(&[][..], |s| &s.pairs[..]);
         let a = match &model.fabric {
             // Every pair of a triangle's corners, and the two vertices across each edge.
             Some(_) => {
                 let mesh = model.mesh.as_deref().expect("a mesh cloth's mesh");
-                BlockCsr::pattern(n, mesh.edges.iter().chain(&mesh.across).copied())
+                BlockCsr::pattern(
+                    n,
+                    mesh.edges
+                        .iter()
+                        .chain(&mesh.across)
+                        .chain(seam_pairs)
+                        .copied(),
+                )
             }
-            None => BlockCsr::pattern(n, springs.ends.iter().copied()),
+            None => BlockCsr::pattern(n, springs.ends.iter().chain(seam_pairs).copied()),
         };
         let find =
             |a: &BlockCsr, p: u32, q: u32| a.find(p as usize, q as usize).unwrap_or(0) as u32;
@@ -126,6 +136,8 @@ impl ImplicitMesh {
             ),
             None => (Vec::new(), Vec::new()),
         };
+        let pair_slots = |&[p, q]: &[u32; 2]| [find(&a, p, q), find(&a, q, p)];
+        let seam_slots = seam_pairs.iter().map(pair_slots).collect();
         let slots = springs
             .ends
             .iter()
@@ -148,6 +160,7 @@ impl ImplicitMesh {
             fabric: FabricScratch::default(),
             tri_slots,
             hinge_slots,
+            seam_slots,
             budget: Some(budget),
             rhs: Soa::zeros(n),
             v: Soa::zeros(n),
@@ -175,6 +188,7 @@ impl ImplicitMesh {
             + self.fabric.heap_bytes()
             + self.tri_slots.capacity() * 36
             + self.hinge_slots.capacity() * 64
+            + self.seam_slots.capacity() * 8
             + [
                 &self.rhs,
                 &self.v,
@@ -274,6 +288,19 @@ impl ImplicitMesh {
                 }
             }
         }
+        if let Some(seams) = &model.seams {
+            // Each pair's spring (linearised below or beyond its cap) and its damping.
+            for (i, (&[p, q], &[pq, qp])) in seams.pairs.iter().zip(&self.seam_slots).enumerate() {
+                let d = x.get(q as usize) - x.get(p as usize);
+                let h = DMat3::from_diagonal(Vec3::splat(
+                    seams.stiffness_at(i, d) * dt2 + seams.damping[i] * dt,
+                ));
+                self.a.val[pq as usize] -= h;
+                self.a.val[qp as usize] -= h;
+                self.a.val[self.a.diag[p as usize] as usize] += h;
+                self.a.val[self.a.diag[q as usize] as usize] += h;
+            }
+        }
         let damp = 1.0 + dt * model.damping;
         for k in 0..model.len() {
             let slot = self.a.diag[k] as usize;
@@ -317,6 +344,10 @@ impl ImplicitMesh {
             self.force.set(k, f);
             self.pressure.set(k, Vec3::ZERO);
             self.per_pascal.set(k, pressure_per_pascal(mesh, law, x, k));
+        }
+        // The seams' springs (their damping is in the matrix).
+        if let Some(seams) = &model.seams {
+            seams.add_forces(x, |_| Vec3::ZERO, &mut self.force);
         }
         let pressure_now = match air.timing {
             Timing::Now => Some(()),

@@ -236,6 +236,11 @@ impl MeshVerlet {
                 }
             });
         }
+        // The seams' springs and damping (velocities as the damping above takes them).
+        if let Some(seams) = &model.seams {
+            let prev: &Soa = prev;
+            seams.add_forces(x, |k| (x.get(k) - prev.get(k)) / dt, &mut self.force);
+        }
         // The pressure (eq. 3.7): of the step's start, or of its end from the coasting
         // positions.
         // The load borrowed from the air model, no copy: one difference, or one per particle.

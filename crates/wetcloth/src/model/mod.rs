@@ -119,6 +119,8 @@ pub struct Model {
     /// The moving colliders (with keys), any shape, answered in their moving frame
     /// ([`crate::collide::contact::resolve_moving`]).
     pub(crate) moving: Vec<Collider>,
+    /// The seams' pairs (`[[cloth.seam]]`), if any.
+    pub seams: Option<crate::forces::seam::Seams>,
 }
 
 impl Model {
@@ -240,7 +242,12 @@ impl Model {
                 .collect(),
             None => vec![border.len() as u32],
         };
+        let seams = crate::forces::seam::Seams::new(&cloth.seams, |k| match &masses {
+            Some(m) => m[k],
+            None => particle_mass,
+        });
         Self {
+            seams,
             border_ends,
             particle_mass,
             masses,
@@ -403,11 +410,12 @@ impl Model {
     /// The elastic energy stored at positions `x`, J: the springs', or the membrane and bending
     /// elements'.
     pub fn elastic_energy(&self, x: &Soa) -> Real {
-        match (&self.fabric, &self.mesh_springs) {
+        let cloth = match (&self.fabric, &self.mesh_springs) {
             (Some(f), _) => f.energy(x),
             (None, Some(s)) => s.energy(x),
             (None, None) => crate::forces::spring::potential_energy(&self.springs, x),
-        }
+        };
+        cloth + self.seams.as_ref().map_or(0.0, |s| s.energy(x))
     }
 }
 

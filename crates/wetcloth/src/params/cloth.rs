@@ -82,6 +82,10 @@ pub struct ClothParams {
     /// `dry_friction_factor` from its table ([`crate::params::materials`]) at the cloth's
     /// wetness, except the keys the scene writes.
     pub material: Option<String>,
+    /// Seams (`[[cloth.seam]]`): particle pairs of two panels pulled together by zero-length
+    /// springs ([`crate::forces::seam`]). Default none. A mesh cloth's (or `model =
+    /// "membrane"`'s) only.
+    pub seams: Vec<crate::forces::seam::SeamSpec>,
 }
 
 /// The cloth's mechanics (`[cloth] model`).
@@ -348,6 +352,7 @@ impl Default for ClothParams {
             bending: BendingParams::default(),
             density: None,
             material: None,
+            seams: Vec::new(),
         }
     }
 }

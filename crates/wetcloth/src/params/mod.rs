@@ -296,6 +296,17 @@ impl SimConfig {
         for (i, a) in self.attachments.iter().enumerate() {
             a.validate(i, self.colliders.len())?;
         }
+        if !c.seams.is_empty() && c.mesh.is_none() && c.model == ClothModel::Springs {
+            return Err(ConfigError::Invalid {
+                key: "cloth.seam".into(),
+                message: "seams sew the panels of a mesh cloth: give [cloth] a `mesh`, or \
+                          set `model = \"membrane\"` for the grid"
+                    .into(),
+            });
+        }
+        for (i, s) in c.seams.iter().enumerate() {
+            s.validate(i, c.particle_count())?;
+        }
         Ok(())
     }
 
