@@ -49,7 +49,7 @@ struct RawAttach {
     vertex: Option<usize>,
     near: Option<Arr<Real, 3>>,
     within: Option<RawWithin>,
-    stiffness: Option<Spanned<Real>>,
+    stiffness: Option<Real>,
 }
 
 #[derive(Deserialize)]
@@ -769,15 +769,6 @@ fn attach(
         value: cx.raw(&span),
         message,
     };
-    if let Some(k) = &a.stiffness {
-        return Err(fail(
-            k.span(),
-            format!("attach[{i}].stiffness"),
-            "soft attachments are not available yet: leave `stiffness` out for a hard \
-             attachment (the particles held exactly on their points)"
-                .into(),
-        ));
-    }
     let given = usize::from(a.vertex.is_some())
         + usize::from(a.near.is_some())
         + usize::from(a.within.is_some());
@@ -812,6 +803,7 @@ fn attach(
     Ok(wetcloth::control::AttachSpec {
         collider: a.collider,
         pick,
+        stiffness: a.stiffness,
     })
 }
 

@@ -309,6 +309,9 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[attach]]");
         let _ = writeln!(o, "collider = {}  # 0-based", a.collider);
+        if let Some(k) = a.stiffness {
+            let _ = writeln!(o, "stiffness = {}  # N/m per particle", f(k));
+        }
         let _ = match &a.pick {
             GrabPick::Vertex(k) => writeln!(o, "vertex = {k}"),
             GrabPick::Near(p) => writeln!(o, "near = {}  # m", v3(*p)),

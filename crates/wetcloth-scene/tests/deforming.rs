@@ -230,7 +230,8 @@ fn bad_motions_are_refused_naming_the_file() {
 }
 
 /// `[[attach]]` reads its collider and particles as a grab's, writes back to the same, and
-/// refuses a collider the scene lacks and a `stiffness` (soft attachments are not available).
+/// refuses a collider the scene lacks and a `stiffness` on the spring grid (a soft attachment
+/// pulls a mesh cloth's particles); on the membrane grid it reads and writes back.
 #[test]
 fn attachments_read_and_refuse_by_key() {
     let text = "[cloth]\nresolution = [4, 4]\nposition = [0.0, 0.5, 0.0]\n\n[air]\nenabled = \
@@ -259,8 +260,52 @@ fn attachments_read_and_refuse_by_key() {
         e.contains("attach[0].stiffness") && e.contains("a.toml:"),
         "{e}"
     );
+    let soft =
+        format!("{text}stiffness = 10.0\n").replace("[cloth]\n", "[cloth]\nmodel = \"membrane\"\n");
+    let scene = wetcloth_scene::parse(&soft, Path::new("a.toml")).unwrap();
+    assert_eq!(scene.config.attachments[0].stiffness, Some(10.0));
+    let back = wetcloth_scene::parse(&scene.to_toml(), Path::new("b.toml")).unwrap();
+    assert_eq!(back.config, scene.config);
     let e = wetcloth_scene::parse(&format!("{text}vertex = 1\n"), Path::new("a.toml"))
         .unwrap_err()
         .to_string();
     assert!(e.contains("exactly one of"), "{e}");
+}
+
+/// `[[cloth.seam]]` reads its pairs with the defaults, writes back to the same, and is refused
+/// naming its key and line: on the spring grid, with lists of different lengths, a particle out
+/// of range.
+#[test]
+fn seams_read_and_refuse_by_key() {
+    let text = "[cloth]\nresolution = [4, 4]\nmodel = \"membrane\"\n\n[[cloth.seam]]\na = [0, 1]\nb \
+                = [12, 13]\n\n[air]\nenabled = false\n";
+    let scene = wetcloth_scene::parse(text, Path::new("s.toml")).unwrap();
+    let seams = &scene.config.cloth.seams;
+    assert_eq!(seams.len(), 1);
+    assert_eq!(
+        (seams[0].a.clone(), seams[0].b.clone()),
+        (vec![0, 1], vec![12, 13])
+    );
+    assert_eq!(seams[0].stiffness, 50.0);
+    assert_eq!(seams[0].max_force, 0.05);
+    let back = wetcloth_scene::parse(&scene.to_toml(), Path::new("b.toml")).unwrap();
+    assert_eq!(back.config, scene.config);
+    for (bad, key, says) in [
+        ("model = \"membrane\"\n", "cloth.seam", "mesh"),
+        ("b \n= [12, 13]", "cloth.seam[0].b", "same"),
+        ("[12, 13]", "cloth.seam[0].b", "16"),
+    ] {
+        let with = match bad {
+            "b \n= [12, 13]" => text.replace("b = [12, 13]", "b = [12]"),
+            "[12, 13]" => text.replace("[12, 13]", "[12, 16]"),
+            _ => text.replace(bad, ""),
+        };
+        let e = wetcloth_scene::parse(&with, Path::new("s.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains(key) && e.contains(says) && e.contains("s.toml"),
+            "{e}"
+        );
+    }
 }

@@ -126,9 +126,18 @@ impl Simulation {
                     collider: a.collider as u32,
                     binding: attach::bind(collider, rest.get(k)),
                 };
-                control
-                    .grabs
-                    .push(Grab::new(k, GrabMotion::Attached(attachment)));
+                match a.stiffness {
+                    None => control
+                        .grabs
+                        .push(Grab::new(k, GrabMotion::Attached(attachment))),
+                    Some(stiffness) => control.tethers.push(crate::control::Tether {
+                        particle: k,
+                        attachment,
+                        stiffness,
+                        points: [rest.get(k); 2],
+                        force: Vec3::ZERO,
+                    }),
+                }
             }
         }
         let mut sim = Self {
@@ -380,6 +389,11 @@ impl Simulation {
                 o.1 += g.force();
             }
         }
+        for t in &self.control.tethers {
+            let o = &mut out[t.attachment.attach as usize];
+            o.0 += 1;
+            o.1 += t.force;
+        }
         out
     }
 
@@ -390,6 +404,7 @@ impl Simulation {
             .iter()
             .filter(|g| matches!(g.motion, GrabMotion::Attached(_)))
             .map(|g| g.force)
+            .chain(self.control.tethers.iter().map(|t| t.force))
             .sum()
     }
 

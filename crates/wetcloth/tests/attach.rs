@@ -118,6 +118,7 @@ fn attached_particles_follow_their_point_on_a_moving_surface() {
                     center: Vec3::new(0.01, half.y + r, 0.0),
                     radius: 0.03,
                 },
+                stiffness: None,
             }];
             let mut sim = Simulation::new(cfg).unwrap();
             let start = sim.positions().clone();
@@ -171,6 +172,7 @@ fn attachments_carry_the_weight_of_a_hanging_cloth() {
                 center: Vec3::new(-0.05, 0.1, 0.0),
                 half_size: Vec3::new(1e-3, 1e-3, 0.06),
             },
+            stiffness: None,
         }];
         let mass = cfg.cloth.mass;
         let mut sim = Simulation::new(cfg).unwrap();
@@ -197,4 +199,91 @@ fn attachments_carry_the_weight_of_a_hanging_cloth() {
             .fold(Real::INFINITY, |a, &b| a.min(b));
         assert!(low < 0.02, "{name}: the lowest particle at {low}");
     }
+}
+
+/// A soft attachment (`stiffness`, N/m per particle) hangs the same cloth on springs: at rest
+/// their pulls sum to the weight `M g` (to 1e-3, as the hard one's), and the attached edge sags
+/// below its points by Hooke's law, `M g / (n k)` on average over its `n` particles (the pulls
+/// are the springs' stretches times `k`, to round-off); the cloth is the grid's triangles with
+/// membrane elements (soft attachments pull a mesh cloth's particles).
+#[test]
+fn soft_attachments_carry_the_weight_on_their_springs() {
+    let (g, k) = (9.8, 200.0);
+    for integrator in Integrator::ALL {
+        let bx = Collider::cuboid(Vec3::new(-0.11, 0.1, 0.0), Vec3::new(0.05, 0.02, 0.06), 0.6);
+        let mut cfg = dry(9, 0.1, Vec3::new(0.0, 0.1, 0.0), vec![bx]);
+        cfg.cloth.model = wetcloth::ClothModel::Membrane;
+        cfg.cloth.damping = 5.0;
+        cfg.simulation.integrator = integrator;
+        cfg.simulation.time_step = match integrator {
+            Integrator::Verlet => 1.0 / 12000.0,
+            Integrator::Implicit => 1.0 / 600.0,
+        };
+        let edge = Vec3::new(-0.05, 0.1, 0.0);
+        cfg.attachments = vec![AttachSpec {
+            collider: 0,
+            pick: GrabPick::Box {
+                center: edge,
+                half_size: Vec3::new(1e-3, 1e-3, 0.06),
+            },
+            stiffness: Some(k),
+        }];
+        let mass = cfg.cloth.mass;
+        let mut sim = Simulation::new(cfg).unwrap();
+        let start = sim.positions().clone();
+        while sim.time() < 4.0 {
+            sim.step().unwrap();
+        }
+        let name = integrator.name();
+        let forces = sim.attach_forces();
+        assert_eq!(forces[0].0, 9, "{name}: the edge's 9 particles");
+        let f = forces[0].1;
+        let weight = mass * g;
+        assert!(
+            (f - Vec3::new(0.0, weight, 0.0)).length() < 1e-3 * weight,
+            "{name}: soft attachments pull {f}, the cloth weighs {weight} N"
+        );
+        assert!(
+            sim.grabs().is_empty(),
+            "{name}: soft attachments hold nothing hard"
+        );
+        // The edge's mean sag below its points (the box does not move).
+        let x = sim.positions();
+        let edge_particles: Vec<usize> = (0..x.len())
+            .filter(|&i| (start.get(i).x - edge.x).abs() < 1e-3)
+            .collect();
+        assert_eq!(edge_particles.len(), 9);
+        let sag: Real = edge_particles
+            .iter()
+            .map(|&i| start.get(i).y - x.get(i).y)
+            .sum::<Real>()
+            / 9.0;
+        let want = weight / (9.0 * k);
+        assert!(
+            (sag - want).abs() < 1e-3 * want,
+            "{name}: the edge sags {sag} m, Hooke's law says {want} m"
+        );
+    }
+}
+
+/// Soft attachments are refused on the spring grid and out of range, naming the key.
+#[test]
+fn soft_attachments_are_refused_where_they_cannot_pull() {
+    let bx = Collider::cuboid(Vec3::new(-0.11, 0.1, 0.0), Vec3::new(0.05, 0.02, 0.06), 0.6);
+    let mut cfg = dry(9, 0.1, Vec3::new(0.0, 0.1, 0.0), vec![bx]);
+    cfg.attachments = vec![AttachSpec {
+        collider: 0,
+        pick: GrabPick::Vertex(0),
+        stiffness: Some(100.0),
+    }];
+    let e = cfg.validate().unwrap_err().to_string();
+    assert!(
+        e.contains("attach[0].stiffness") && e.contains("mesh"),
+        "{e}"
+    );
+    cfg.cloth.model = wetcloth::ClothModel::Membrane;
+    cfg.validate().unwrap();
+    cfg.attachments[0].stiffness = Some(-1.0);
+    let e = cfg.validate().unwrap_err().to_string();
+    assert!(e.contains("attach[0].stiffness") && e.contains("-1"), "{e}");
 }

@@ -14,6 +14,14 @@
 //! what it grabs: each is a grab ([`super::Grab`]) whose target at every step is its point
 //! then, so it does not collide with anything while held, and the force that holds it is
 //! reported as a hand's (`attach_force` in `metrics.csv`, `attachments.csv`).
+//!
+//! A soft attachment (`stiffness = k`, N/m per particle) pulls each of its particles towards
+//! its point by a zero-length spring, `F = k (p(t) - x)`, a [`Tether`]: explicit in the Verlet
+//! step (the point at the step's start), implicit in the implicit step (the point at its end,
+//! `k` in the system matrix), so a stiff one is stable at large steps. The particles stay free
+//! otherwise and collide as the rest of the cloth. Its force is reported as a hard one's, and
+//! its work on the cloth counts as a hand's in the energy audit. A mesh cloth's only (or the
+//! grid with `model = "membrane"`).
 
 use crate::collide::{Collider, Shape};
 use crate::error::ConfigError;
@@ -29,6 +37,13 @@ pub struct AttachSpec {
     pub collider: usize,
     /// The particles, chosen as a grab's (`vertex`, `near` or `within`).
     pub pick: GrabPick,
+    /// Stiffness of each particle's spring to its point, N/m (scene `stiffness`); `None` (the
+    /// default) holds the particles exactly on their points. Range (0, 1e7].
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub stiffness: Option<Real>,
 }
 
 impl AttachSpec {
@@ -43,6 +58,15 @@ impl AttachSpec {
                 } else {
                     format!("[0, {}] (the scene's colliders, 0-based)", colliders - 1)
                 },
+            });
+        }
+        if let Some(k) = self.stiffness
+            && !(k.is_finite() && k > 0.0 && k <= 1e7)
+        {
+            return Err(ConfigError::OutOfRange {
+                key: format!("attach[{index}].stiffness"),
+                value: crate::math::num(k),
+                range: "(0, 1e7] N/m per particle; leave it out for a hard attachment".into(),
             });
         }
         Ok(())
@@ -80,6 +104,30 @@ pub struct Attachment {
     pub collider: u32,
     /// Where the particle is bound.
     pub binding: Binding,
+}
+
+/// A particle of a soft attachment: its spring to its point on the collider.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Tether {
+    /// The particle.
+    pub particle: usize,
+    /// Its binding.
+    pub attachment: Attachment,
+    /// The spring's stiffness, N/m.
+    pub stiffness: Real,
+    /// Its point at the step's start and end, m (set by [`super::Control::begin_step`]).
+    pub points: [Vec3; 2],
+    /// The spring's force on the particle during the last step, N.
+    pub force: Vec3,
+}
+
+impl Tether {
+    /// The spring's force on the particle at `x` towards `point`, N.
+    #[inline]
+    pub fn pull(&self, x: Vec3, point: Vec3) -> Vec3 {
+        (point - x) * self.stiffness
+    }
 }
 
 /// The binding of the point `x` (m, at t = 0) on `collider`.

@@ -4,7 +4,7 @@
 pub mod attach;
 mod grab;
 
-pub use attach::{AttachSpec, Attachment, Binding};
+pub use attach::{AttachSpec, Attachment, Binding, Tether};
 pub use grab::{Grab, GrabKey, GrabMotion, GrabPick, GrabSpec};
 
 use crate::math::{Real, Soa, Vec3};
@@ -15,6 +15,9 @@ use crate::math::{Real, Soa, Vec3};
 pub struct Control {
     /// The grabs (the hand, F_u).
     pub grabs: Vec<Grab>,
+    /// The soft attachments' particles (`[[attach]]` with `stiffness`).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub tethers: Vec<Tether>,
     /// Whether the pressure force acts.
     pub air_enabled: bool,
     /// Each grab's target for the step being taken (`None` while the grab is inactive).
@@ -40,6 +43,7 @@ impl Control {
     pub fn new(n: usize, air_enabled: bool) -> Self {
         Self {
             grabs: Vec::new(),
+            tethers: Vec::new(),
             air_enabled,
             targets: Vec::new(),
             held: vec![false; n],
@@ -76,6 +80,12 @@ impl Control {
             if t.is_some() {
                 self.held[g.particle] = true;
             }
+        }
+        for t in &mut self.tethers {
+            t.points = [
+                attached(&t.attachment, t_next - dt),
+                attached(&t.attachment, t_next),
+            ];
         }
     }
 
@@ -125,6 +135,8 @@ impl Control {
 
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.held.capacity() + self.targets.capacity() * std::mem::size_of::<Option<Vec3>>()
+        self.held.capacity()
+            + self.targets.capacity() * std::mem::size_of::<Option<Vec3>>()
+            + self.tethers.capacity() * std::mem::size_of::<Tether>()
     }
 }

@@ -349,6 +349,13 @@ impl ImplicitMesh {
         if let Some(seams) = &model.seams {
             seams.add_forces(x, |_| Vec3::ZERO, &mut self.force);
         }
+        // The soft attachments' springs to their points at the step's end (backward Euler:
+        // `k (p(t + dt) - x - dt v+)`, the `k dt^2` in the matrix below).
+        for t in &control.tethers {
+            let k = t.particle;
+            self.force
+                .set(k, self.force.get(k) + t.pull(x.get(k), t.points[1]));
+        }
         let pressure_now = match air.timing {
             Timing::Now => Some(()),
             Timing::EndOfStep => None,
@@ -373,6 +380,10 @@ impl ImplicitMesh {
             }
         }
         self.assemble(model, springs, x, dt);
+        for t in &control.tethers {
+            let slot = self.a.diag[t.particle] as usize;
+            self.a.val[slot] += DMat3::from_diagonal(Vec3::splat(t.stiffness * dt * dt));
+        }
         // Hands: their particles' velocities are known.
         self.fixed.fill(false);
         for (k, target) in control.active() {
@@ -583,6 +594,14 @@ impl ImplicitMesh {
             air_work += self.pressure.get(k).dot(next.get(k) - x.get(k));
         }
         control.air_work += (air_work.abs() * 1e12).round() * 1e-12;
+        // The soft attachments' pulls at the step's end, and their work over its moves.
+        let mut work = 0.0;
+        for t in &mut control.tethers {
+            let k = t.particle;
+            t.force = t.pull(next.get(k), t.points[1]);
+            work += checks::work(t.force, x.get(k), next.get(k)).abs();
+        }
+        control.hand_work += work;
         for k in 0..n {
             let v0 = (x.get(k) - prev.get(k)) / dt;
             state

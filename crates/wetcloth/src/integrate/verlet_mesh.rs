@@ -241,6 +241,12 @@ impl MeshVerlet {
             let prev: &Soa = prev;
             seams.add_forces(x, |k| (x.get(k) - prev.get(k)) / dt, &mut self.force);
         }
+        // The soft attachments' springs to their points at the step's start.
+        for t in &mut control.tethers {
+            let k = t.particle;
+            t.force = t.pull(x.get(k), t.points[0]);
+            self.force.set(k, self.force.get(k) + t.force);
+        }
         // The pressure (eq. 3.7): of the step's start, or of its end from the coasting
         // positions.
         // The load borrowed from the air model, no copy: one difference, or one per particle.
@@ -332,6 +338,10 @@ impl MeshVerlet {
                 }
                 None => g.force = Vec3::ZERO,
             }
+        }
+        for t in &control.tethers {
+            let k = t.particle;
+            hand += checks::work(t.force, p.get(k), state.x.get(k)).abs();
         }
         control.hand_work += hand;
         finish_step(model, &state.x, &control.held, fused)
