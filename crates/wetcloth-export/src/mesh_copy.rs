@@ -10,7 +10,7 @@ use std::io::{self, BufRead, BufReader, Write};
 use std::path::Path;
 
 use wetcloth::collide::mesh::{copy_name, mesh_digest};
-use wetcloth::collide::{Key, Mesh};
+use wetcloth::collide::{Key, Mesh, PointMotion, PointSource};
 use wetcloth::{ClothMeshSource, Collider, Real, Shape, Vec3};
 
 use crate::RunInfo;
@@ -224,7 +224,105 @@ pub fn write_mesh_copies(dir: &Path, colliders: &[Collider]) -> io::Result<()> {
             crate::write_atomically(&path, |w| write_model(w, m))?;
         }
     }
+    for c in colliders {
+        if let Shape::Mesh(m) = &c.shape
+            && let (Some(name), Some(motion)) = (m.points_copy_name(), m.motion())
+        {
+            let path = dir.join(name);
+            if !path.is_file() {
+                crate::write_atomically(&path, |w| write_points(w, &motion.frames))?;
+            }
+        }
+    }
     Ok(())
+}
+
+/// A PC2 cache of `frames` (each the same count of points): the header (`POINTCACHE2\0`,
+/// version 1, the point count, start frame 0, sampling 1, the frame count), then every
+/// frame's points as little-endian single-precision triples.
+fn write_points(mut w: impl Write, frames: &[Vec<Vec3>]) -> io::Result<()> {
+    let points = frames.first().map_or(0, Vec::len);
+    w.write_all(b"POINTCACHE2\0")?;
+    for v in [1i32, points as i32] {
+        w.write_all(&v.to_le_bytes())?;
+    }
+    for v in [0f32, 1f32] {
+        w.write_all(&v.to_le_bytes())?;
+    }
+    w.write_all(&(frames.len() as i32).to_le_bytes())?;
+    let mut buf = Vec::with_capacity(points * 12);
+    for f in frames {
+        buf.clear();
+        for p in f {
+            for c in p.to_array() {
+                buf.extend_from_slice(&(c as f32).to_le_bytes());
+            }
+        }
+        w.write_all(&buf)?;
+    }
+    w.flush()
+}
+
+/// The frames of the point copy `dir/name` written by [`write_mesh_copies`] for a mesh of
+/// `vertices` vertices, or what is wrong with it (naming the file).
+fn read_points(dir: &Path, name: &str, vertices: usize) -> Result<Vec<Vec<Vec3>>, String> {
+    // Only the names write_mesh_copies gives: no path leaves the run folder.
+    let ok_name = name.strip_prefix("meshes/").is_some_and(|rest| {
+        rest.len() == 16 + 1 + 16 + 4
+            && rest.ends_with(".pc2")
+            && rest[..33].chars().enumerate().all(|(i, c)| {
+                if i == 16 {
+                    c == '-'
+                } else {
+                    c.is_ascii_hexdigit()
+                }
+            })
+    });
+    if !ok_name {
+        return Err(format!("points_copy = {name:?} is not a point copy's name"));
+    }
+    let path = dir.join(name);
+    if std::fs::metadata(&path).is_ok_and(|m| !m.is_file()) {
+        return Err(format!(
+            "{}: the points' copy is not a regular file",
+            path.display()
+        ));
+    }
+    let bytes = std::fs::read(&path)
+        .map_err(|e| format!("{}: cannot read the points' copy: {e}", path.display()))?;
+    let bad = |what: &str| format!("{}: not a point copy: {what}", path.display());
+    if bytes.len() < 32 || &bytes[..12] != b"POINTCACHE2\0" {
+        return Err(bad("no PC2 header"));
+    }
+    let int = |at: usize| i32::from_le_bytes(bytes[at..at + 4].try_into().unwrap_or_default());
+    let (points, count) = (int(16), int(28));
+    if points < 0 || points as usize != vertices {
+        return Err(bad(&format!(
+            "{points} points, the mesh has {vertices} vertices"
+        )));
+    }
+    let count = usize::try_from(count).map_err(|_| bad("a negative frame count"))?;
+    if count == 0 || bytes.len() != 32 + count * vertices * 12 {
+        return Err(bad(&format!(
+            "{} bytes for {count} frames of {vertices} points",
+            bytes.len()
+        )));
+    }
+    let value = |at: usize| {
+        Real::from(f32::from_le_bytes(
+            bytes[at..at + 4].try_into().unwrap_or_default(),
+        ))
+    };
+    Ok((0..count)
+        .map(|f| {
+            (0..vertices)
+                .map(|v| {
+                    let at = 32 + (f * vertices + v) * 12;
+                    Vec3::new(value(at), value(at + 4), value(at + 8))
+                })
+                .collect()
+        })
+        .collect())
 }
 
 fn write_model(mut w: impl Write, m: &Mesh) -> io::Result<()> {
@@ -362,6 +460,26 @@ pub fn read_colliders(dir: &Path, colliders: &serde_json::Value) -> Result<Vec<C
             number("scale")?,
         )
         .map_err(|e| at(format!("{copy}: {e}")))?;
+        // A deforming mesh: its motion from the copy of its frames, timed as the scene timed it.
+        let mesh = match c.get("points_copy").and_then(|v| v.as_str()) {
+            None => mesh,
+            Some(name) => {
+                let frames = read_points(dir, name, mesh.vertices().len()).map_err(at)?;
+                let source = match (text("sequence"), text("cache")) {
+                    (Ok(s), _) => PointSource::Sequence(s),
+                    (_, Ok(c)) => PointSource::Cache(c),
+                    _ => PointSource::Cache(name.to_string()),
+                };
+                let motion = PointMotion {
+                    source,
+                    frame_rate: number("frame_rate")?,
+                    start: c.get("start").and_then(|v| v.as_f64()).unwrap_or(0.0),
+                    frames: std::sync::Arc::new(frames),
+                };
+                mesh.with_motion(motion)
+                    .map_err(|e| at(format!("{name}: {e}")))?
+            }
+        };
         let keys: Vec<Key> = match c.get("keys") {
             None => Vec::new(),
             Some(k) => serde_json::from_value(k.clone()).map_err(|e| at(format!("keys: {e}")))?,
@@ -413,4 +531,64 @@ pub fn read_run_json(dir: &Path, text: &str) -> Result<RunInfo, String> {
         .map_err(|e| format!("{json}: not a wetcloth run.json: {e}"))?;
     info.colliders = colliders;
     Ok(info)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    /// A deforming mesh collider written to a run folder reads back deforming: the same rest
+    /// mesh and timing, its frames to single precision (the copy's; 1e-6 m at a metre), so a
+    /// renderer of the run draws the body where it was.
+    #[test]
+    fn a_deforming_mesh_reads_back_with_its_motion() {
+        let v = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ];
+        let t = vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        let frames: Vec<Vec<Vec3>> = (0..5)
+            .map(|f| v.iter().map(|p| *p * (1.0 + 0.1 * f as Real)).collect())
+            .collect();
+        let mesh = Mesh::new("tet.obj", v, t, Vec3::ZERO, Vec3::ZERO, 1.0)
+            .unwrap()
+            .with_motion(PointMotion {
+                source: PointSource::Cache("/abs/tet.pc2".into()),
+                frame_rate: 24.0,
+                start: 0.5,
+                frames: Arc::new(frames.clone()),
+            })
+            .unwrap();
+        let collider = Collider::mesh(mesh, 0.6);
+        let dir = std::env::temp_dir().join(format!("wetcloth-points-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        write_mesh_copies(&dir, std::slice::from_ref(&collider)).unwrap();
+        let json = serde_json::to_value(vec![collider.clone()]).unwrap();
+        let back = read_colliders(&dir, &json).unwrap();
+        let Shape::Mesh(m) = &back[0].shape else {
+            panic!("not a mesh")
+        };
+        let motion = m.motion().expect("the motion read back");
+        assert_eq!(motion.frame_rate, 24.0);
+        assert_eq!(motion.start, 0.5);
+        assert_eq!(motion.source, PointSource::Cache("/abs/tet.pc2".into()));
+        for (a, b) in motion.frames.iter().zip(&frames) {
+            for (p, q) in a.iter().zip(b) {
+                assert!((*p - *q).length() < 1e-6, "{p} against {q}");
+            }
+        }
+        // A damaged copy is refused naming it.
+        let Shape::Mesh(original) = &collider.shape else {
+            unreachable!()
+        };
+        let name = original.points_copy_name().unwrap();
+        std::fs::write(dir.join(&name), b"POINTCACHE2\0short").unwrap();
+        let e = read_colliders(&dir, &json).unwrap_err();
+        assert!(e.contains(".pc2") && e.contains("colliders[0]"), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -110,6 +110,9 @@ pub struct Pose {
 pub struct Deform {
     /// The motion as given (for descriptions and the outputs).
     pub motion: PointMotion,
+    /// FNV-1a digest of the motion's frames (their count, then every coordinate's bits), to
+    /// name their copy in a run folder.
+    pub points_digest: u64,
     /// Each file vertex's merged vertex.
     remap: Vec<u32>,
     /// Each frame's merged points, scaled to metres.
@@ -303,7 +306,26 @@ impl Deform {
                 }
             }
         }
+        let points_digest = {
+            let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+            let mut eat = |x: u64| {
+                for b in x.to_le_bytes() {
+                    h ^= u64::from(b);
+                    h = h.wrapping_mul(0x0000_0100_0000_01b3);
+                }
+            };
+            eat(motion.frames.len() as u64);
+            for f in motion.frames.iter() {
+                for p in f {
+                    for c in p.to_array() {
+                        eat(c.to_bits());
+                    }
+                }
+            }
+            h
+        };
         let mut d = Self {
+            points_digest,
             motion,
             remap,
             frames,

@@ -296,6 +296,15 @@ impl Mesh {
         Ok(self)
     }
 
+    /// Where a run folder keeps a copy of a deforming mesh's point motion (a PC2 cache of its
+    /// frames in file coordinates, `meshes/<model digest>-<points digest>.pc2`); `None` for a
+    /// mesh that does not deform.
+    pub fn points_copy_name(&self) -> Option<String> {
+        self.deform
+            .as_deref()
+            .map(|d| points_copy_name(self.digest, d.points_digest))
+    }
+
     /// The motion of the mesh's points, if it deforms.
     pub fn motion(&self) -> Option<&PointMotion> {
         self.deform.as_deref().map(|d| &d.motion)
@@ -748,6 +757,12 @@ pub fn copy_name(digest: u64) -> String {
     format!("meshes/{digest:016x}.obj")
 }
 
+/// The name of the copy of a deforming mesh's point motion in a run folder, by the model's
+/// digest and the frames' ([`Mesh::points_copy_name`]).
+pub fn points_copy_name(digest: u64, points: u64) -> String {
+    format!("meshes/{digest:016x}-{points:016x}.pc2")
+}
+
 /// `run.json`'s form of a mesh: its placement, and the model by reference (`copy`, the copy
 /// of it in the run folder, and its `digest`, [`mesh_digest`] as 16 hex digits) so that
 /// `run.json` stays a few kilobytes whatever the mesh. Older files (and readers that put the
@@ -780,6 +795,10 @@ struct MeshRepr {
     frame_rate: Option<Real>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     start: Option<Real>,
+    /// The copy of the motion's frames in the run folder (a PC2 cache, single precision), for
+    /// renderers and exporters that read the run back.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    points_copy: Option<String>,
 }
 
 #[cfg(feature = "serde")]
@@ -813,6 +832,7 @@ impl From<Mesh> for MeshRepr {
             None => (None, None),
         };
         Self {
+            points_copy: m.points_copy_name(),
             sequence,
             cache,
             frame_rate: motion.as_ref().map(|mo| mo.frame_rate),
