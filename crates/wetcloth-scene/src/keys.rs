@@ -53,6 +53,7 @@ pub const CLOTH: &[&str] = &[
     "density",
     "material",
     "seam",
+    "shrink",
 ];
 /// Keys of a `[[cloth.seam]]`.
 pub const SEAM: &[&str] = &["a", "b", "stiffness", "max_force"];

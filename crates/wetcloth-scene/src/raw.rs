@@ -93,6 +93,7 @@ struct RawCloth {
     density: Option<Spanned<Real>>,
     material: Option<Spanned<String>>,
     seam: Option<Vec<RawSeam>>,
+    shrink: Option<Real>,
 }
 
 #[derive(Deserialize)]
@@ -525,6 +526,7 @@ fn convert(
                 }
             }
         }
+        set(&mut d.shrink, c.shrink);
         for s in c.seam.unwrap_or_default() {
             d.seams.push(wetcloth::forces::seam::SeamSpec {
                 a: s.a,

@@ -108,6 +108,9 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     let _ = writeln!(o, "water_mass = {}  # kg/m^2", f(c.water_mass));
     let _ = writeln!(o, "dry_friction_factor = {}", f(c.dry_friction_factor));
     let _ = writeln!(o, "wet_adhesion = {}  # Pa", f(c.wet_adhesion));
+    if c.shrink != 0.0 {
+        let _ = writeln!(o, "shrink = {}  # fraction of the rest size", f(c.shrink));
+    }
     if c.model == ClothModel::Membrane {
         let m = &c.membrane;
         let _ = writeln!(o);

@@ -190,3 +190,60 @@ fn seams_are_refused_on_the_spring_grid_and_out_of_range() {
     let e = cfg.validate().unwrap_err().to_string();
     assert!(e.contains("cloth.seam[0].b") && e.contains("2500"), "{e}");
 }
+
+/// `[cloth] shrink = s` scales the cloth's rest shape by `1 - s`: a free square cloth (no
+/// gravity, damped) relaxes to a square `1 - s` times its side, its elastic energy to nothing,
+/// with the grid's springs, a mesh's springs and membrane elements. Tolerance: the damping
+/// (5/s over 3 s) leaves 3e-7 of the first strain; 1e-4 of the side allows the solver's.
+#[test]
+fn shrink_scales_the_rest_shape() {
+    let s = 0.1;
+    for (what, model, membrane) in [
+        ("grid springs", None, false),
+        ("mesh springs", Some(ClothModel::Springs), false),
+        ("mesh membrane", Some(ClothModel::Membrane), true),
+    ] {
+        let mut cfg = config(Integrator::Implicit, ClothModel::Springs, false);
+        cfg.cloth.seams.clear();
+        cfg.cloth.shrink = s;
+        cfg.cloth.damping = 5.0;
+        match model {
+            None => {
+                cfg.cloth.mesh = None;
+                cfg.cloth.density = None;
+                cfg.cloth.resolution = [11, 11];
+                cfg.cloth.size = [SIDE, SIDE];
+            }
+            Some(m) => {
+                // One panel: the first's vertices only.
+                let (mut mesh, _) = panels();
+                let faces: Vec<Vec<u32>> = mesh.faces[..2 * (N - 1) * (N - 1)].to_vec();
+                mesh.vertices = Arc::new(mesh.vertices[..N * N].to_vec());
+                mesh.faces = Arc::new(faces);
+                cfg.cloth.mesh = Some(mesh);
+                cfg.cloth.model = m;
+                if membrane {
+                    cfg.cloth.membrane.poisson = 0.3;
+                }
+            }
+        }
+        let mut sim = Simulation::new(cfg).unwrap();
+        assert!(sim.model().elastic_energy(sim.positions()) > 0.0, "{what}");
+        while sim.time() < 3.0 {
+            sim.step().unwrap();
+        }
+        let x = sim.positions();
+        // Corners 0 and N - 1 (an edge), and 0 and N (N - 1) (the other).
+        let side_x = (x.get(N - 1) - x.get(0)).length();
+        let side_z = (x.get(N * (N - 1)) - x.get(0)).length();
+        for side in [side_x, side_z] {
+            assert!(
+                (side / SIDE - (1.0 - s)).abs() < 1e-4,
+                "{what}: side {side} m, want {} m",
+                SIDE * (1.0 - s)
+            );
+        }
+        let e = sim.model().elastic_energy(x);
+        assert!(e < 1e-9, "{what}: {e} J left");
+    }
+}

@@ -195,14 +195,25 @@ impl Model {
         let f = cloth.dry_friction_factor;
         let friction_scale = (f != 1.0 && wetness.iter().any(|&w| w != 1.0))
             .then(|| wetness.iter().map(|&w| f + (1.0 - f) * w).collect());
-        let mesh_springs = mesh.as_ref().map(|m| {
+        // The rest shape of the springs and elements: the cloth as placed, scaled by `1 -
+        // shrink` (lengths and areas of its rest state; its angles kept).
+        let keep = 1.0 - cloth.shrink;
+        let shrunk = mesh.as_ref().filter(|_| keep != 1.0).map(|m| {
+            ClothMesh::new(
+                m.rest.iter().map(|&p| p * keep).collect(),
+                m.triangles.clone(),
+            )
+            .expect("a scaled valid mesh")
+        });
+        let mechanics = shrunk.as_ref().or(mesh.as_deref());
+        let mesh_springs = mechanics.map(|m| {
             Arc::new(if membrane {
                 MeshSprings::none(m)
             } else {
                 MeshSprings::new(m, cloth.structural_stiffness, cloth.shear_stiffness)
             })
         });
-        let fabric = match (&mesh, membrane) {
+        let fabric = match (mechanics, membrane) {
             (Some(m), true) => Some(Arc::new(fabric_of(cloth, m))),
             _ => None,
         };
@@ -212,9 +223,9 @@ impl Model {
                 nz: grid.nz,
                 structural: cloth.structural_stiffness,
                 shear: cloth.shear_stiffness,
-                rest_x: grid.dx,
-                rest_z: grid.dz,
-                rest_diag: grid.dx.hypot(grid.dz),
+                rest_x: grid.dx * keep,
+                rest_z: grid.dz * keep,
+                rest_diag: grid.dx.hypot(grid.dz) * keep,
             },
             None => SpringConsts {
                 nx: n,

@@ -86,6 +86,12 @@ pub struct ClothParams {
     /// springs ([`crate::forces::seam`]). Default none. A mesh cloth's (or `model =
     /// "membrane"`'s) only.
     pub seams: Vec<crate::forces::seam::SeamSpec>,
+    /// Shrink of the cloth's rest shape, a fraction (`[cloth] shrink`): its springs' rest
+    /// lengths and its membrane's and bending elements' rest triangles are `1 - shrink` of
+    /// their size at t = 0 (the rest shape scaled, its angles kept), so a garment made to the
+    /// body's size is pulled onto it as a snug, wet one clings (Blender's cloth "shrinking").
+    /// Mass, areas and the air's `S` keep the cloth as placed. Default 0; range [0, 0.5].
+    pub shrink: Real,
 }
 
 /// The cloth's mechanics (`[cloth] model`).
@@ -353,6 +359,7 @@ impl Default for ClothParams {
             density: None,
             material: None,
             seams: Vec::new(),
+            shrink: 0.0,
         }
     }
 }

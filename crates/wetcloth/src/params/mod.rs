@@ -167,6 +167,7 @@ impl SimConfig {
             10.0,
         )?;
         check_range("cloth.wet_adhesion", c.wet_adhesion, 0.0, 1e6)?;
+        check_range("cloth.shrink", c.shrink, 0.0, 0.5)?;
         for (i, p) in c.paint.iter().enumerate() {
             let key = |k: &str| format!("cloth.paint[{i}].{k}");
             check_range(&key("center"), p.center[0], -1e3, 1e3)?;
