@@ -63,7 +63,7 @@ impl Simulation {
     /// Builds a simulation at t = 0 from a validated configuration.
     pub fn new(config: SimConfig) -> Result<Self, ConfigError> {
         config.validate()?;
-        let model = Model::new(&config);
+        let mut model = Model::new(&config);
         let n = model.len();
         let rest = model.rest_positions(config.cloth.position);
         let mut control = Control::new(n, config.air.enabled);
@@ -138,6 +138,12 @@ impl Simulation {
                         force: Vec3::ZERO,
                     }),
                 }
+            }
+        }
+        if !control.tethers.is_empty() {
+            model.contact_exempt = vec![u32::MAX; model.len()];
+            for t in &control.tethers {
+                model.contact_exempt[t.particle] = t.attachment.collider;
             }
         }
         let mut sim = Self {
@@ -826,6 +832,10 @@ impl Simulation {
             exec::map_in_place(&mut state.x, |k, p| {
                 if held[k] {
                     p
+                } else if let Some(c) = model.exempt_collider(k) {
+                    // Not out of the collider a soft attachment binds it to.
+                    let p = contact::project(&colliders[..c], p, r);
+                    contact::project(&colliders[c + 1..], p, r)
                 } else {
                     contact::project(colliders, p, r)
                 }

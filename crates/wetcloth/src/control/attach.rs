@@ -19,7 +19,8 @@
 //! its point by a zero-length spring, `F = k (p(t) - x)`, a [`Tether`]: explicit in the Verlet
 //! step (the point at the step's start), implicit in the implicit step (the point at its end,
 //! `k` in the system matrix), so a stiff one is stable at large steps. The particles stay free
-//! otherwise and collide as the rest of the cloth. Its force is reported as a hard one's, and
+//! otherwise and do not collide with the collider they are attached to
+//! ([`crate::Model::contact_exempt`]; they collide with the others). Its force is reported as a hard one's, and
 //! its work on the cloth counts as a hand's in the energy audit. A mesh cloth's only (or the
 //! grid with `model = "membrane"`).
 

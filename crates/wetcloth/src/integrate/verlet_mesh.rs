@@ -97,16 +97,27 @@ pub(crate) fn resolve_contacts(
 ) -> Real {
     let n = x.len();
     let scale = model.friction_scale.as_deref();
-    {
+    let [plane_ids, still_ids, moving_ids] = &model.contact_ids;
+    contact.fill(false);
+    // A soft attachment's particles keep their moves through the collider they are attached to.
+    let mut kept: Vec<(usize, Vec3, bool)> = Vec::new();
+    for (p, &id) in model.planes.iter().zip(plane_ids) {
+        kept.clear();
+        kept.extend(
+            (0..model.contact_exempt.len())
+                .filter(|&k| model.contact_exempt[k] == id)
+                .map(|k| (k, next.get(k), contact[k])),
+        );
         let here = row(x, n, 0);
         let mut to = RowMut {
             x: &mut next.x[..],
             y: &mut next.y[..],
             z: &mut next.z[..],
         };
-        contact.fill(false);
-        for p in &model.planes {
-            plane::contact_row_scaled(p, here, &mut to, contact, scale);
+        plane::contact_row_scaled(p, here, &mut to, contact, scale);
+        for &(k, v, c) in &kept {
+            next.set(k, v);
+            contact[k] = c;
         }
     }
     let mut work = 0.0;
@@ -115,13 +126,25 @@ pub(crate) fn resolve_contacts(
             let now = x.get(k);
             let mut to = next.get(k);
             let f = scale.map_or(1.0, |s| s[k]);
+            let skip = model.exempt_collider(k).map(|c| c as u32);
             if !model.non_planes.is_empty() {
-                let (moved, hit) =
-                    contact::resolve_scaled(&model.non_planes, now, to, model.radius, f);
-                to = moved;
-                contact[k] |= hit;
+                // Each collider corrects the move in turn: without the exempt one, the two
+                // runs around it.
+                let split = skip
+                    .and_then(|c| still_ids.iter().position(|&i| i == c))
+                    .unwrap_or(model.non_planes.len());
+                let (before, after) = model.non_planes.split_at(split);
+                let after = after.get(1..).unwrap_or(&[]);
+                for part in [before, after] {
+                    let (moved, hit) = contact::resolve_scaled(part, now, to, model.radius, f);
+                    to = moved;
+                    contact[k] |= hit;
+                }
             }
-            for (col, frames) in model.moving.iter().zip(frames) {
+            for ((col, frames), &id) in model.moving.iter().zip(frames).zip(moving_ids) {
+                if skip == Some(id) {
+                    continue;
+                }
                 let (moved, hit, w) = contact::resolve_moving(
                     col,
                     frames,

@@ -119,6 +119,12 @@ pub struct Model {
     /// The moving colliders (with keys), any shape, answered in their moving frame
     /// ([`crate::collide::contact::resolve_moving`]).
     pub(crate) moving: Vec<Collider>,
+    /// The scene index of each of `planes`, `non_planes` and `moving`.
+    pub(crate) contact_ids: [Vec<u32>; 3],
+    /// For each particle, the collider (scene index) it does not collide with, `u32::MAX` for
+    /// none: a soft attachment's particles and the collider they are attached to. Empty when
+    /// no particle is exempt.
+    pub contact_exempt: Vec<u32>,
     /// The seams' pairs (`[[cloth.seam]]`), if any.
     pub seams: Option<crate::forces::seam::Seams>,
 }
@@ -299,12 +305,34 @@ impl Model {
                 .filter(|c| c.is_moving())
                 .cloned()
                 .collect(),
+            contact_ids: {
+                let ids = |keep: &dyn Fn(&Collider) -> bool| {
+                    (0..config.colliders.len() as u32)
+                        .filter(|&i| keep(&config.colliders[i as usize]))
+                        .collect()
+                };
+                [
+                    ids(&|c| !c.is_moving() && c.as_plane().is_some()),
+                    ids(&|c| c.as_plane().is_none() && !c.is_moving()),
+                    ids(&|c| c.is_moving()),
+                ]
+            },
+            contact_exempt: Vec::new(),
             grid,
             mesh,
             mesh_springs,
             fabric,
             grid_size: cloth.mesh.is_none().then_some(cloth.resolution),
         }
+    }
+
+    /// The collider (scene index) particle `k` does not collide with, if any.
+    #[inline]
+    pub fn exempt_collider(&self, k: usize) -> Option<usize> {
+        self.contact_exempt
+            .get(k)
+            .filter(|&&c| c != u32::MAX)
+            .map(|&c| c as usize)
     }
 
     /// Number of particles.
