@@ -117,7 +117,7 @@ pub struct Tether {
     pub attachment: Attachment,
     /// The spring's stiffness, N/m.
     pub stiffness: Real,
-    /// Its point at the step's start and end, m (set by [`super::Control::begin_step`]).
+    /// Its point at the step's start and end, m (set as each step begins).
     pub points: [Vec3; 2],
     /// The spring's force on the particle during the last step, N.
     pub force: Vec3,
