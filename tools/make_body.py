@@ -1,10 +1,79 @@
 #!/usr/bin/env python3
-"""Generates scenes/body/: a stylised mannequin for garments (mannequin.obj) and its motions as
-point caches (arms-raise.pc2, walk.pc2).
+"""Generates scenes/body/: a stylised mannequin to dress in wet cloth, its motions as point
+caches, and garments fitted to it, procedurally, with the standard library only.
 
-    python3 tools/make_body.py [--sequence] [OUT_DIR]   (default: scenes/body/ beside tools/)
+    python3 tools/make_body.py [--sequence] [--fine] [--tshirt-edge METRES] [OUT_DIR]
+    (default OUT_DIR: scenes/body/ beside tools/)
 
-Metres, Y up, the body faces +Z, its soles on y = 0. The output is deterministic.
+Units and conventions: metres, Y up, the body faces +Z (its left arm towards +x), its soles on
+y = 0, 1.75 m tall. Every face is wound counter-clockwise seen from outside (a garment's from
+the side away from the body: the simulator keeps the air on the side its normals point away
+from, so the air trapped between cloth and body is under the cloth). Coordinates are written
+with 6 decimals and every check runs on the written values; the output is deterministic (the
+same bytes on every run).
+
+Writes:
+- mannequin.obj: one closed, 2-manifold triangle mesh (12 870 triangles) in an A-pose, arms
+  45 degrees out from the body, clear of the torso below the armpits.
+- arms-raise.pc2, walk.pc2: point caches of the mannequin (vertex for vertex, in its order;
+  file coordinates = metres, Y up), FRAME_RATE = 24 frames per second, frame 0 the rest pose.
+  arms-raise: both arms up from the A-pose to straight over the head in 1.5 s (eased in and
+  out), held 0.5 s (49 frames). walk: two cycles of a walk in place, 2 s (49 frames).
+  PC2: b"POINTCACHE2\\0", int32 version 1, int32 point count, float32 start frame 0, float32
+  sampling 1 (a sample per frame), int32 sample count, then float32 x, y, z per point per
+  sample, all little-endian. A scene gives the rate as the collider's `frame_rate`.
+- tshirt.obj (short sleeves, hips to neck, about 4 500 vertices at --tshirt-edge, default
+  TSHIRT_EDGE = 1.35 cm), towel.obj (a 1.0 x 0.5 m bath towel over the shoulders, 2 592
+  vertices), skirt.obj (hips to knees, 1 920 vertices): open welded meshes with texture
+  coordinates (`f v/vt ...`), every vertex at least GAP = 1 cm from the body.
+- with --sequence, each motion also as OBJ frames arms-raise/frame_0000.obj ... and
+  walk/frame_0000.obj ... (the mannequin's faces in every frame; for tests, not committed);
+- with --fine, also tshirt-fine.obj (edges of FINE_EDGE = 0.95 cm, about 9 000 vertices).
+
+The body. A field over space, negative inside: ellipsoids and capsules of varying radius,
+each attached to a bone of a skeleton (pelvis, spine, chest, neck, head, collarbones, upper
+arms, forearms, mitten hands, thighs, shins, feet), blended in order by a quadratic smooth
+minimum (and a smooth subtraction for the groove down the spine). The torso has a chest,
+shoulder blades and buttocks that stand out of the hollow of the lower back, so a wet shirt
+has hollows to bridge. Polygonised by marching tetrahedra on a 2 cm grid (six tetrahedra per
+cube around its main diagonal, so neighbouring cubes agree and the surface is closed and
+2-manifold; no grid value is exactly zero), vertices welded by grid edge, then remeshed on the
+level set towards 1.7 cm edges: long edges split, short ones collapsed (where that keeps the
+mesh manifold and no face flips), edges flipped where that raises the smaller angle, vertices
+smoothed in the tangent plane and put back on the surface by Newton steps along the field's
+gradient. Checked before writing: every edge shared by exactly two faces running it in
+opposite directions, one piece of genus 0, positive signed volume, every face's area above
+1e-10 m^2 and its normal along the field's gradient, the triangle count within 10 000-20 000.
+
+The motions. Linear blend skinning: a vertex's weights are exp(-(d_b - d_min) / 1 cm) over
+the bone nearest to it, that bone's parent and children (d_b each bone's own field there),
+smoothed over the mesh by eight rounds of averaging with the neighbours, the four largest
+kept, normalised; so elbows, shoulders and hips bend smoothly. Each frame poses the skeleton
+(rotations about the joints) and skins the rest mesh. Checked per frame: no point moved by
+its arm alone lies more than 5 mm inside the torso, head or legs as posed (their shapes moved
+with their bones); the largest point speed per frame is printed.
+
+The garments. The T-shirt is cut out of the level set field = GAP + EASE (1.5 cm): marching
+tetrahedra at the target edge, remeshed as the body, then cut along the hem (y = 0.86 m), the
+neckline (an elliptic cylinder about the neck) and each sleeve's end (a plane across the arm
+16 cm from the shoulder, so the sleeves follow the A-pose): vertices near a cut move onto it,
+the edges crossing it are split there, the far side is deleted, and the piece at the chest is
+kept. The remeshing then goes on with the cut edges' vertices held on their curves. A seam
+surface (about where the shirt is seen edge-on from the front, and through the middle of the
+armpits) is cut in the same way without deleting: it parts the front panel from the back one
+along the sides, under the arms and over the shoulders and sleeves. The texture coordinates
+are the two panels' flat patterns: each flattened as rigidly as possible from its view from
+the front (or behind), laid side by side and scaled into [0, 1]^2 by one factor; u runs up the
+body (the grain: the simulator's warp is along dX/du). The towel is a regular grid (squares
+split along alternate diagonals) whose top edge lies across the back of the neck and the
+shoulders, laid down the back and draped by rounds of restoring the grid's lengths and
+pushing vertices out of the level set; u along its length, v across, over [0, 1]^2. The skirt
+is rings of vertices, every other one turned half a step (near-equilateral triangles), each
+ring as wide as the body's outline from the waistband down to it plus a 6 degree flare.
+Checked before writing: open, 2-manifold, consistently wound, no degenerate face, every
+vertex outside the body and at least GAP from the mannequin's mesh (exact point-triangle
+distances), the faces turned away from the body, no texture triangle flipped; the smallest
+angle, the share of faces below 25 degrees and the least gap are printed.
 """
 
 import math
@@ -784,6 +853,93 @@ class Remesher:
                 self.relax()
         self.flip_pass()
 
+    def cut(self, cid, func, length, where=None, delete=True, snap=0.3):
+        """Cuts the surface along the curve func = 0: vertices within snap * length of it are
+        moved onto it, the edges still crossing it are split where they cross, so that the
+        curve runs along edges. With delete, the faces on its negative side go and the new
+        boundary's vertices are tied to the curve; without, the edges along it become seam
+        edges (a feature the remeshing keeps). `where(p)` limits the cut to part of space."""
+        big = 1e9
+        vals = {}
+        for v in range(len(self.V)):
+            if self.alive[v] and self.vf[v]:
+                vals[v] = func(self.V[v])[0] if where is None or where(self.V[v]) else big
+        for v in sorted(vals, key=lambda v: (abs(vals[v]), v)):
+            x = vals[v]
+            if x == big or abs(x) >= snap * length or len(self.tags[v]) >= 2:
+                continue
+            tag = tuple(sorted(self.tags[v] + (cid,)))
+            p = self.constrain(self.V[v], tag)
+            moved = {v: p}
+            if all(dot(self.normal(f), self.normal(f, moved)) > 0 for f in self.vf[v]):
+                self.V[v] = p
+                self.tags[v] = tag
+                vals[v] = 0.0
+        for a, b in self.edges():
+            va, vb = vals[a], vals[b]
+            if va * vb >= 0.0 or not self.faces_of_edge(a, b):
+                continue
+            assert big not in (va, vb), f"cut {cid} leaves the region it is limited to"
+            tag = tuple(sorted(self.split_tag(a, b) + (cid,)))
+            p = self.constrain(lerp(self.V[a], self.V[b], va / (va - vb)), tag)
+            m = self.split(a, b, p, tag)
+            vals[m] = 0.0
+        side = {}
+        for f, t in enumerate(self.F):
+            if t is None:
+                continue
+            s = [vals[v] for v in t]
+            if max(s) > 0.0:
+                side[f] = 1
+            elif min(s) < 0.0:
+                side[f] = -1
+            else:
+                c = mul(add(add(self.V[t[0]], self.V[t[1]]), self.V[t[2]]), 1.0 / 3.0)
+                side[f] = 1 if func(c)[0] >= 0.0 else -1
+        if delete:
+            for f in sorted(side):
+                if side[f] < 0:
+                    self.remove_face(f)
+        else:
+            for a, b in self.edges():
+                fs = sorted(self.faces_of_edge(a, b))
+                if len(fs) == 2 and side[fs[0]] != side[fs[1]]:
+                    self.feat.add((a, b))
+        for v in range(len(self.V)):
+            if not self.vf[v]:
+                self.alive[v] = False
+            if cid in self.tags[v]:
+                on = any(self.is_feature(v, u) for u in self.neighbours(v)
+                         if (delete and self.is_boundary_edge(v, u)) or (not delete and (min(u, v), max(u, v)) in self.feat))
+                if not on or not self.alive[v]:
+                    self.tags[v] = tuple(c for c in self.tags[v] if c != cid)
+        return side
+
+    def keep_component(self, point):
+        """Deletes every piece of the surface but the one nearest to `point`."""
+        live = [f for f, t in enumerate(self.F) if t is not None]
+        parent = {}
+
+        def find(a):
+            while parent.setdefault(a, a) != a:
+                parent[a] = parent[parent[a]]
+                a = parent[a]
+            return a
+
+        for f in live:
+            a, b, c = self.F[f]
+            ra = find(a)
+            parent[find(b)] = ra
+            parent[find(c)] = ra
+        near = min(live, key=lambda f: (norm(sub(self.V[self.F[f][0]], point)), f))
+        root = find(self.F[near][0])
+        for f in live:
+            if find(self.F[f][0]) != root:
+                self.remove_face(f)
+        for v in range(len(self.V)):
+            if not self.vf[v]:
+                self.alive[v] = False
+
     def compact(self):
         """The live mesh with vertices renumbered in order of first use by the faces, and the
         tags and seam edges carried over."""
@@ -1147,6 +1303,589 @@ def write_pc2(path, frames, rate):
 
 
 # ---------------------------------------------------------------------------------------------
+# Garments.
+
+GAP = 0.01  # m: the least distance from a garment's vertex to the body
+EASE = 0.005  # m: how much looser than the gap the T-shirt is made
+TSHIRT_EDGE = 0.0135  # m
+FINE_EDGE = 0.0095  # m: tshirt-fine.obj (--fine), about 9 000 vertices
+HEM_Y = 0.86  # m: the T-shirt's hem, over the hips
+SLEEVE = 0.16  # m: from the shoulder joint along the arm to the sleeve's end
+
+
+def plane(point, normal):
+    normal = unit(normal)
+
+    def f(p):
+        return dot(sub(p, point), normal), normal
+
+    return f
+
+
+def neckline(p):
+    """Zero on the crew neck's opening: an elliptic cylinder about the neck, 17 cm across and
+    17 cm deep; positive outside it."""
+    ax, az, zc = 0.085, 0.085, 0.005
+    x, z = p[0] / ax, (p[2] - zc) / az
+    r = math.sqrt(x * x + z * z)
+    if r < 1e-9:
+        return -ax, (1.0, 0.0, 0.0)
+    g = (x / (r * ax) * ax, 0.0, z / (r * az) * ax)
+    return (r - 1.0) * ax, g
+
+
+def silhouette(field, radius=0.12):
+    """Zero where the surface is seen edge-on from the front: the z component of the field's
+    unit gradient (times a typical radius of the body, to read about as metres), positive on
+    the front. Its gradient is taken by central differences."""
+
+    def nz(p):
+        g = field.value_grad(p)[1]
+        return radius * g[2] / norm(g)
+
+    def f(p, h=1e-3):
+        grad = tuple((nz(add(p, e)) - nz(sub(p, e))) / (2 * h) for e in ((h, 0.0, 0.0), (0.0, h, 0.0), (0.0, 0.0, h)))
+        return nz(p), grad
+
+    return f
+
+
+def side_seam(y_shift):
+    """Zero on the surface z = z_s(x, y) that parts the T-shirt's front from its back: about
+    where the shirt is seen edge-on from the front (over the shoulders 2 cm behind the middle,
+    along the sides 0.5 cm in front of it, along the arms 1.5 cm behind it) but straight
+    through the middle of the armpit, where the silhouette wanders."""
+
+    def zs(x, y):
+        y -= y_shift
+        top = smoothstep((y - 1.36) / 0.1)
+        body = -0.02 * top + 0.005 * (1.0 - top)
+        arm = smoothstep((abs(x) - 0.19) / 0.05)
+        return body * (1.0 - arm) - 0.015 * arm
+
+    def f(p, h=1e-4):
+        z0 = zs(p[0], p[1])
+        gx = (zs(p[0] + h, p[1]) - zs(p[0] - h, p[1])) / (2 * h)
+        gy = (zs(p[0], p[1] + h) - zs(p[0], p[1] - h)) / (2 * h)
+        return p[2] - z0, (-gx, -gy, 1.0)
+
+    return f
+
+
+def tshirt(field, length, gap):
+    """The T-shirt: the level set field = gap + EASE between the hem and the neck, with short
+    sleeves, cut out of the surface and remeshed at `length`; the edges along its silhouette
+    seen from the front are the seams between the front and the back panel."""
+    iso = gap + EASE
+    lo = (-0.46, HEM_Y - 0.05 + field.y_shift, -0.2)
+    hi = (0.46, 1.62 + field.y_shift, 0.22)
+    points, tris = march(lambda p: field.value(p) - iso, lo, hi, length)
+    curves = {"hem": plane((0.0, HEM_Y + field.y_shift, 0.0), Y_AXIS), "neck": neckline, "seam": side_seam(field.y_shift)}
+    wheres = {}
+    for side, s in (("L", 1.0), ("R", -1.0)):
+        shoulder, elbow, _, _ = arm_points(s)
+        shoulder = (shoulder[0], shoulder[1] + field.y_shift, shoulder[2])
+        u = unit(sub(elbow, arm_points(s)[0]))
+        curves["sleeve." + side] = plane(add(shoulder, mul(u, SLEEVE)), mul(u, -1.0))
+
+        def near_arm(p, shoulder=shoulder, u=u):
+            d = sub(p, shoulder)
+            s_ = dot(d, u)
+            return s_ > 0.05 and norm(sub(d, mul(u, s_))) < 0.1
+
+        wheres["sleeve." + side] = near_arm
+    rm = Remesher(field, iso, points, tris, curves=curves, seams=("seam",))
+    rm.remesh(length, rounds=2)
+    for cid in ("hem", "neck", "sleeve.L", "sleeve.R"):
+        rm.cut(cid, curves[cid], length, where=wheres.get(cid))
+    rm.keep_component((0.0, 1.25 + field.y_shift, 0.2))
+    rm.remesh(length, rounds=3)
+    rm.cut("seam", curves["seam"], length, delete=False)
+    rm.remesh(length, rounds=2)
+    points, tris, tags, seams = rm.compact()
+    return points, tris, tags, seams
+
+def flatten(points, tris, start, iterations):
+    """A flat pattern of a piece of surface (a disc): starting from `start` (vertex -> (u, v),
+    no triangle flipped by much), each round fits every triangle's true shape onto its current
+    place by a rotation and a shift (never a reflection) and moves each vertex to the mean of
+    its triangles' fits (as-rigid-as-possible, Jacobi). Returns vertex -> (u, v), m."""
+    shapes = []
+    for a, b, c in tris:
+        e1, e2 = sub(points[b], points[a]), sub(points[c], points[a])
+        x = unit(e1)
+        y = unit(cross(cross(e1, e2), e1))
+        q = [(0.0, 0.0), (norm(e1), 0.0), (dot(e2, x), dot(e2, y))]
+        mx, my = (q[1][0] + q[2][0]) / 3, (q[1][1] + q[2][1]) / 3
+        shapes.append([(qx - mx, qy - my) for qx, qy in q])
+    uv = dict(start)
+    count = {}
+    for t in tris:
+        for v in t:
+            count[v] = count.get(v, 0) + 1
+    for _ in range(iterations):
+        acc = {v: [0.0, 0.0] for v in uv}
+        for t, q in zip(tris, shapes):
+            c = [uv[v] for v in t]
+            cx = (c[0][0] + c[1][0] + c[2][0]) / 3
+            cy = (c[0][1] + c[1][1] + c[2][1]) / 3
+            s = cr = 0.0
+            for (qx, qy), (ux, uy) in zip(q, c):
+                ux -= cx
+                uy -= cy
+                s += qx * ux + qy * uy
+                cr += qx * uy - qy * ux
+            h = math.hypot(s, cr)
+            co, si = (s / h, cr / h) if h > 0 else (1.0, 0.0)
+            for v, (qx, qy) in zip(t, q):
+                a = acc[v]
+                a[0] += cx + co * qx - si * qy
+                a[1] += cy + si * qx + co * qy
+        uv = {v: (a[0] / count[v], a[1] / count[v]) for v, a in acc.items()}
+    return uv
+
+
+def untangle(tris, uv, rounds=200):
+    """Moves the vertices around flipped texture triangles (and their neighbours) to the
+    middle of their neighbours until none is flipped; the pattern's border stays unless it
+    is part of the fold."""
+    ring, edges = {}, {}
+    for a, b, c in tris:
+        for u, w in ((a, b), (b, c), (c, a)):
+            ring.setdefault(u, set()).add(w)
+            ring.setdefault(w, set()).add(u)
+            k = (min(u, w), max(u, w))
+            edges[k] = edges.get(k, 0) + 1
+    border = set(v for e, n in edges.items() if n == 1 for v in e)
+    for _ in range(rounds):
+        bad = [t for t in tris if uv_area(*[uv[v] for v in t]) <= 0]
+        if not bad:
+            return uv
+        move = set()
+        for t in bad:
+            for v in t:
+                move.add(v)
+                move.update(ring[v])
+        if _ < rounds // 2:
+            move -= border
+        new = {}
+        for v in sorted(move):
+            n = sorted(ring[v])
+            new[v] = (sum(uv[u][0] for u in n) / len(n), sum(uv[u][1] for u in n) / len(n))
+        uv.update(new)
+    return uv
+
+
+def panels_of(tris, seams):
+    """The pieces the seam edges cut a mesh into: lists of face indices, largest first."""
+    owner = {}
+    for f, (a, b, c) in enumerate(tris):
+        for u, w in ((a, b), (b, c), (c, a)):
+            owner.setdefault((min(u, w), max(u, w)), []).append(f)
+    parent = list(range(len(tris)))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    cut = set(seams)
+    for e, fs in owner.items():
+        if len(fs) == 2 and e not in cut:
+            parent[find(fs[1])] = find(fs[0])
+    groups = {}
+    for f in range(len(tris)):
+        groups.setdefault(find(f), []).append(f)
+    return sorted(groups.values(), key=lambda g: (-len(g), g[0]))
+
+
+def uv_area(a, b, c):
+    return ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) / 2
+
+
+def pattern_uvs(points, tris, panels, iterations=80, margin=0.02):
+    """Texture coordinates from flat patterns: `panels` is a list of (face indices, initial
+    (u, v) of a point, a function); each panel is flattened (its seams' vertices get one
+    texture coordinate per panel), the panels are laid side by side along v and the whole
+    scaled by one factor into [0, 1]^2, so u and v stay proportional to lengths on the
+    cloth. Returns (uvs, face_uvs, scale (texture units per metre))."""
+    placed = []
+    for faces, init in panels:
+        sub_tris = [tris[f] for f in faces]
+        verts = sorted(set(v for t in sub_tris for v in t))
+        uv = flatten(points, sub_tris, {v: init(points[v]) for v in verts}, iterations)
+        uv = flatten(points, sub_tris, untangle(sub_tris, uv), iterations // 4)
+        uv = untangle(sub_tris, uv)
+        for t in sub_tris:
+            assert uv_area(*[uv[v] for v in t]) > 0, "a flipped triangle in a flat pattern"
+        placed.append((faces, uv))
+    offset = 0.0
+    boxes = []
+    for faces, uv in placed:
+        us = [p[0] for p in uv.values()]
+        vs = [p[1] for p in uv.values()]
+        boxes.append((min(us), max(us), min(vs), max(vs), offset))
+        offset += max(vs) - min(vs) + margin
+    width = offset - margin
+    height = max(b[1] - b[0] for b in boxes)
+    scale = (1.0 - 2 * margin) / max(width, height)
+    uvs, face_uvs = [], [None] * len(tris)
+    for (faces, uv), (u0, u1, v0, v1, off) in zip(placed, boxes):
+        index = {}
+        for v in sorted(uv):
+            index[v] = len(uvs)
+            uvs.append((fmt(margin + (uv[v][0] - u0) * scale), fmt(margin + (uv[v][1] - v0 + off) * scale)))
+        for f in faces:
+            face_uvs[f] = tuple(index[v] for v in tris[f])
+    for t, ft in zip(tris, face_uvs):
+        assert uv_area(*[uvs[i] for i in ft]) > 0, "a texture triangle wound against its face"
+    return uvs, face_uvs, scale
+
+
+def point_triangle(p, a, b, c):
+    """The closest point to p on triangle a b c."""
+    ab, ac, ap = sub(b, a), sub(c, a), sub(p, a)
+    d1, d2 = dot(ab, ap), dot(ac, ap)
+    if d1 <= 0 and d2 <= 0:
+        return a
+    bp = sub(p, b)
+    d3, d4 = dot(ab, bp), dot(ac, bp)
+    if d3 >= 0 and d4 <= d3:
+        return b
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0 and d1 >= 0 and d3 <= 0:
+        return add(a, mul(ab, d1 / (d1 - d3)))
+    cp = sub(p, c)
+    d5, d6 = dot(ab, cp), dot(ac, cp)
+    if d6 >= 0 and d5 <= d6:
+        return c
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0 and d2 >= 0 and d6 <= 0:
+        return add(a, mul(ac, d2 / (d2 - d6)))
+    va = d3 * d6 - d5 * d4
+    if va <= 0 and (d4 - d3) >= 0 and (d5 - d6) >= 0:
+        return add(b, mul(sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6))))
+    den = 1.0 / (va + vb + vc)
+    return add(a, add(mul(ab, vb * den), mul(ac, vc * den)))
+
+
+class MeshDistance:
+    """Distances from points to a triangle mesh, through a grid of buckets."""
+
+    def __init__(self, points, tris, cell=0.03):
+        self.P, self.T, self.cell = points, tris, cell
+        self.buckets = {}
+        for f, (a, b, c) in enumerate(tris):
+            lo = [min(points[a][i], points[b][i], points[c][i]) for i in range(3)]
+            hi = [max(points[a][i], points[b][i], points[c][i]) for i in range(3)]
+            for i in range(math.floor(lo[0] / cell), math.floor(hi[0] / cell) + 1):
+                for j in range(math.floor(lo[1] / cell), math.floor(hi[1] / cell) + 1):
+                    for k in range(math.floor(lo[2] / cell), math.floor(hi[2] / cell) + 1):
+                        self.buckets.setdefault((i, j, k), []).append(f)
+
+    def distance(self, p, reach=0.05):
+        """The distance from p to the mesh, or `reach` if it is farther than that."""
+        best = reach
+        c = self.cell
+        seen = set()
+        r = int(math.ceil(reach / c))
+        ci, cj, ck = math.floor(p[0] / c), math.floor(p[1] / c), math.floor(p[2] / c)
+        for i in range(ci - r, ci + r + 1):
+            for j in range(cj - r, cj + r + 1):
+                for k in range(ck - r, ck + r + 1):
+                    for f in self.buckets.get((i, j, k), ()):
+                        if f in seen:
+                            continue
+                        seen.add(f)
+                        a, b, cc = self.T[f]
+                        d = norm(sub(p, point_triangle(p, self.P[a], self.P[b], self.P[cc])))
+                        if d < best:
+                            best = d
+        return best
+
+
+def check_garment(name, points, tris, uvs, face_uvs, field, body, gap, outward_share=0.98):
+    """Asserts a garment is an open manifold mesh wound outwards (each face's normal away from
+    the body), every vertex at least `gap` from the body mesh and outside it; returns its
+    report: (vertices, triangles, smallest angle, share below 25 degrees, least gap, edges)."""
+    boundary = check_mesh(points, tris, closed=False)
+    assert boundary > 0, f"{name} has no opening"
+    least = 1.0
+    for p in points:
+        assert field.value(p) > 0.0, f"{name}: a vertex inside the body"
+        least = min(least, body.distance(p))
+    assert least >= gap * (1 - 1e-6), f"{name}: a vertex {least * 1000:.2f} mm from the body (< {gap * 1000:.1f} mm)"
+    outward = 0
+    for a, b, c in tris:
+        centre = mul(add(add(points[a], points[b]), points[c]), 1.0 / 3.0)
+        if dot(tri_normal(points[a], points[b], points[c]), field.value_grad(centre)[1]) > 0:
+            outward += 1
+    assert outward >= outward_share * len(tris), f"{name}: only {outward} of {len(tris)} faces face away from the body"
+    angle, small = angle_stats(points, tris)
+    return (len(points), len(tris), angle, small, least, edge_stats(points, tris), outward)
+
+SKIRT_TOP = 0.97  # m: the skirt's waistband, around the hips
+SKIRT_HEM = 0.50  # m: its hem, at the knees
+SKIRT_AROUND = 64  # vertices around
+
+
+def outer_radius(field, iso, y, theta, start, centre_z=-0.01):
+    """The outermost radius, from the vertical axis through (0, y, centre_z) in the direction
+    theta (0: +z, 90 degrees: +x), where the field is at most iso; 0 if it never is."""
+    d = (math.sin(theta), 0.0, math.cos(theta))
+
+    def at(r):
+        return field.value((d[0] * r, y, centre_z + d[2] * r)) - iso
+
+    r = start
+    while at(r) <= 0.0:
+        r += 0.05
+    step = 0.01
+    while r > 0.0 and at(r - step) > 0.0:
+        r -= step
+    if r - step <= 0.0:
+        return 0.0
+    lo, hi = r - step, r
+    for _ in range(12):
+        mid = (lo + hi) / 2
+        if at(mid) > 0.0:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def skirt(field, gap, around=SKIRT_AROUND, flare=math.radians(6.0), ease=0.006):
+    """A skirt: rings of `around` vertices from the hips down to the knees, every other ring
+    turned half a step, so that the triangles are near equilateral; each ring's height step is
+    sqrt(3)/2 of its mean edge. A ring's radius in each direction is the largest of the body's
+    outline (at gap + ease) from the waistband down to it, plus a flare of 6 degrees, smoothed
+    around; so the skirt hangs from the hips over the buttocks and past both legs as a tube."""
+    iso = gap + ease
+    top, hem = SKIRT_TOP + field.y_shift, SKIRT_HEM + field.y_shift
+    samples = 2 * around
+    thetas = [2.0 * math.pi * i / samples for i in range(samples)]
+    reach = [0.0] * samples
+    rings, ys = [], []
+    y = top
+    prev = [0.3] * samples
+    while True:
+        env = [outer_radius(field, iso, y, th, max(0.05, prev[i] - 0.04)) for i, th in enumerate(thetas)]
+        prev = [max(e, 0.1) for e in env]
+        reach = [max(r, e) for r, e in zip(reach, env)]
+        r = [reach[i] + (top - y) * math.tan(flare) for i in range(samples)]
+        for _ in range(3):
+            r = [(r[i - 1] + 2.0 * r[i] + r[(i + 1) % samples]) / 4.0 for i in range(samples)]
+        r = [max(a, b + 0.001) for a, b in zip(r, env)]
+        rings.append(r)
+        ys.append(y)
+        circumference = sum(math.hypot(r[i] - r[i - 1], r[i] * 2 * math.pi / samples) for i in range(samples))
+        y -= math.sqrt(3.0) / 2.0 * circumference / around
+        if y < hem - 0.25 * (ys[-1] - y):
+            break
+    # Stretch the rings' heights so that the last is on the hem.
+    n = len(ys)
+    ys = [top + (yy - top) * (top - hem) / (top - ys[-1]) for yy in ys]
+    points, uvs_raw = [], []
+    for k in range(n):
+        for i in range(around):
+            j = 2 * i + (k % 2)
+            th = thetas[j]
+            r = rings[k][j]
+            points.append((r * math.sin(th), ys[k], -0.01 + r * math.cos(th)))
+    tris = []
+    for k in range(n - 1):
+        a = lambda i: k * around + i % around
+        b = lambda i: (k + 1) * around + i % around
+        for i in range(around):
+            if k % 2 == 0:
+                tris.append((a(i), b(i), a(i + 1)))
+                tris.append((a(i + 1), b(i), b(i + 1)))
+            else:
+                tris.append((b(i), b(i + 1), a(i)))
+                tris.append((a(i), b(i + 1), a(i + 1)))
+    points = round_points(points)
+    # Texture: u up the skirt (the grain), v around it, from the back (where it wraps, the
+    # seam's vertices have a second coordinate past 1); one scale for both, m.
+    length = top - hem
+    girth = max(sum(norm(sub(points[k * around + i], points[k * around + (i + 1) % around])) for i in range(around)) for k in range(n))
+    span = max(length, girth)
+    uvs, face_uvs, index = [], [], {}
+
+    def vt(v, wrap):
+        key = (v, wrap)
+        if key not in index:
+            k, i = divmod(v, around)
+            th = thetas[2 * i + (k % 2)]
+            turn = ((math.pi - th) % (2.0 * math.pi)) / (2.0 * math.pi) + (1.0 if wrap else 0.0)
+            index[key] = len(uvs)
+            uvs.append((fmt((ys[k] - hem) / span), fmt(turn * girth / span / (1.0 + 1.0 / around))))
+        return index[key]
+
+    for t in tris:
+        turns = [((math.pi - thetas[2 * (v % around) + ((v // around) % 2)]) % (2.0 * math.pi)) for v in t]
+        wrap = max(turns) - min(turns) > math.pi
+        face_uvs.append(tuple(vt(v, wrap and tv < math.pi) for v, tv in zip(t, turns)))
+    return points, tris, uvs, face_uvs
+
+
+TOWEL_SIZE = (1.0, 0.5)  # m: length (across the shoulders) and width (down the back)
+TOWEL_GRID = (72, 36)  # vertices along each
+
+
+def towel(field, gap, ease=0.006, iterations=40, drop=0.0):
+    """A bath towel over the shoulders like a cape: a 1.0 x 0.5 m sheet (a regular grid,
+    each square split along alternate diagonals) whose top edge lies across the back of the
+    neck and the shoulders (where rays from above and behind towards a line through the chest
+    meet the body's level set at gap + ease); the rest of the sheet
+    is laid straight down the back from it, then drapes: rounds of a small step down, the
+    grid's edges (and the vertices two apart along each grid line) put back to their
+    lengths and the vertices pushed out of the level set (a drape without inertia)."""
+    iso = gap + ease
+    nx, nb = TOWEL_GRID
+    L, W = TOWEL_SIZE
+    y0, z0 = 1.28 + field.y_shift, 0.0
+
+    def hit(x, psi):
+        d = (0.0, -math.cos(psi), math.sin(psi))
+        o = (x, y0 - 0.6 * d[1], z0 - 0.6 * d[2])
+        t = 0.0
+        while t < 1.2:
+            if field.value(add(o, mul(d, t + 0.005))) - iso < 0.0:
+                lo, hi = t, t + 0.005
+                for _ in range(20):
+                    mid = (lo + hi) / 2
+                    if field.value(add(o, mul(d, mid))) - iso < 0.0:
+                        hi = mid
+                    else:
+                        lo = mid
+                return add(o, mul(d, lo))
+            t += 0.005
+        return None
+
+    # The top edge: one vertex every grid step across, where a ray from above and behind
+    # (30 degrees from the vertical) meets the body; over the neck and the shoulders (|x| <=
+    # 0.2 m) it is held; beyond, where the rays meet the arms or miss, it is free to move
+    # (level with the last hit where they miss).
+    psi = math.radians(30.0)
+    hx = L / (nx - 1)
+    top, held = [], []
+    for i in range(nx):
+        x = -L / 2 + i * hx
+        top.append(hit(x, psi))
+        held.append(top[-1] is not None and abs(x) <= 0.2)
+    assert sum(held) > nx // 3, "the towel's top edge misses the body"
+    first, last = held.index(True), nx - 1 - held[::-1].index(True)
+    for i in range(nx):
+        if top[i] is None:
+            ref = top[first] if i < first else top[last]
+            top[i] = (-L / 2 + i * hx, ref[1], ref[2])
+    # The sheet starts laid down the body from that edge, each column in its plane x = const:
+    # every next vertex one row's width from the last, on the level set where it can
+    # be (the first such point on that circle coming round from behind), else straight
+    # down; then it drapes.
+    hb = W / (nb - 1)
+    cols = []
+    for i in range(nx):
+        down, back = (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)
+        col = [top[i]]
+        for j in range(1, nb):
+            p = col[-1]
+
+            def at(beta):
+                return add(p, add(mul(down, hb * math.cos(beta)), mul(back, hb * math.sin(beta))))
+
+            q = at(0.0)
+            beta, step = math.pi / 2, math.pi / 36
+            if field.value(at(beta)) >= iso:
+                while beta > -math.pi / 2 + 1e-9:
+                    if field.value(at(beta - step)) < iso:
+                        lo, hi = beta - step, beta
+                        for _ in range(16):
+                            m = (lo + hi) / 2
+                            if field.value(at(m)) < iso:
+                                lo = m
+                            else:
+                                hi = m
+                        q = at(hi) if hi > 0.0 or field.value(at(0.0)) < iso else at(0.0)
+                        break
+                    beta -= step
+            col.append(q)
+        cols.append(col)
+    P = [cols[i][j] for j in range(nb) for i in range(nx)]
+    edges = []
+    tris = []
+    for j in range(nb - 1):
+        for i in range(nx - 1):
+            a = j * nx + i
+            b, c, d = a + 1, a + nx + 1, a + nx
+            if (i + j) % 2 == 0:
+                tris += [(a, b, c), (a, c, d)]
+            else:
+                tris += [(a, b, d), (b, c, d)]
+    for a, b, c in tris:
+        for u, w in ((a, b), (b, c), (c, a)):
+            if u < w:
+                edges.append((u, w, norm(sub(P[u], P[w])) if False else None))
+    rest = {}
+    for j in range(nb):
+        for i in range(nx):
+            rest[j * nx + i] = (i * hx, j * hb)
+    cons = []
+    for u, w, _ in sorted(set(edges)):
+        ru, rw = rest[u], rest[w]
+        cons.append((u, w, math.hypot(ru[0] - rw[0], ru[1] - rw[1])))
+    # Bending: the vertices two apart along each grid line keep their distance.
+    for j in range(nb):
+        for i in range(nx):
+            v = j * nx + i
+            if i + 2 < nx:
+                cons.append((v, v + 2, 2 * hx))
+            if j + 2 < nb:
+                cons.append((v, v + 2 * nx, 2 * hb))
+    pinned = set(i for i in range(nx) if held[i])
+    for it in range(iterations):
+        P = [p if v in pinned else (p[0], p[1] - drop, p[2]) for v, p in enumerate(P)]
+        for _ in range(4):
+            acc = [[0.0, 0.0, 0.0, 0] for _ in P]
+            for u, w, l in cons:
+                d = sub(P[w], P[u])
+                n = norm(d)
+                if n < 1e-12:
+                    continue
+                c = mul(d, 0.5 * (n - l) / n)
+                au, aw = acc[u], acc[w]
+                au[0] += c[0]; au[1] += c[1]; au[2] += c[2]; au[3] += 1
+                aw[0] -= c[0]; aw[1] -= c[1]; aw[2] -= c[2]; aw[3] += 1
+            P = [p if v in pinned or not a[3] else (p[0] + 1.5 * a[0] / a[3], p[1] + 1.5 * a[1] / a[3], p[2] + 1.5 * a[2] / a[3])
+                 for v, (p, a) in enumerate(zip(P, acc))]
+        out = []
+        for v, p in enumerate(P):
+            if v not in pinned:
+                f, g = field.value_grad(p)
+                if f < iso:
+                    gg = dot(g, g)
+                    p = sub(p, mul(g, (f - iso - 0.0005) / gg))
+            out.append(p)
+        P = out
+    # Last, every vertex out of the level set for certain.
+    P = [p if field.value(p) >= iso else field.project(p, iso + 0.0005, 8) for p in P]
+    P = round_points(P)
+    uvs = [(fmt(rest[v][0] / L), fmt(1.0 - rest[v][1] / W)) for v in range(len(P))]
+    # Wind the faces outwards (away from the body), the texture with them.
+    out = 0
+    for a, b, c in tris:
+        centre = mul(add(add(P[a], P[b]), P[c]), 1.0 / 3.0)
+        if dot(tri_normal(P[a], P[b], P[c]), field.value_grad(centre)[1]) > 0:
+            out += 1
+    if out < len(tris) / 2:
+        tris = [(a, c, b) for a, b, c in tris]
+    if uv_area(*[uvs[v] for v in tris[0]]) < 0:
+        uvs = [(u, fmt(1.0 - v)) for u, v in uvs]
+    return P, tris, uvs, [tuple(t) for t in tris]
+
+# ---------------------------------------------------------------------------------------------
 # Output.
 
 
@@ -1214,6 +1953,35 @@ def main():
             os.makedirs(folder, exist_ok=True)
             for k, pts in enumerate(frames):
                 write_obj(os.path.join(folder, f"frame_{k:04d}.obj"), round_points(pts), tris, f"{name}, frame {k}")
+
+    body = MeshDistance(points, tris)
+    garments = []
+    edge = tshirt_edge or TSHIRT_EDGE
+    shirts = [("tshirt.obj", edge)]
+    if fine:
+        shirts.append(("tshirt-fine.obj", FINE_EDGE))
+    for fname, length in shirts:
+        gp, gt, _, seams = tshirt(field, length, GAP)
+        gp = round_points(gp)
+        panels = []
+        for faces in panels_of(gt, seams):
+            front = sum(gp[gt[f][0]][2] for f in faces) > 0
+            panels.append((faces, (lambda p: (p[1], -p[0])) if front else (lambda p: (p[1], p[0]))))
+        assert len(panels) == 2, f"the T-shirt's seams part it into {len(panels)} pieces"
+        uvs, fuv, _ = pattern_uvs(gp, gt, panels)
+        garments.append((fname, f"T-shirt, edges about {length * 100:.2f} cm", gp, gt, uvs, fuv, 0.98))
+    gp, gt, uvs, fuv = towel(field, GAP)
+    garments.append(("towel.obj", "bath towel over the shoulders, 1.0 x 0.5 m", gp, gt, uvs, fuv, 0.9))
+    gp, gt, uvs, fuv = skirt(field, GAP)
+    garments.append(("skirt.obj", "skirt from the hips to the knees", gp, gt, uvs, fuv, 0.98))
+    for fname, title, gp, gt, uvs, fuv, share in garments:
+        r = check_garment(fname, gp, gt, uvs, fuv, field, body, GAP, share)
+        write_obj(os.path.join(out, fname), gp, gt, "wetcloth " + title, uvs, fuv)
+        report[fname] = r
+        print(f"{fname}: {r[0]} vertices, {r[1]} triangles, smallest angle {r[2]:.1f} deg "
+              f"({r[3] * 100:.2f} % of faces below 25), edges {r[5][0] * 100:.2f}-{r[5][2] * 100:.2f} cm "
+              f"(mean {r[5][1] * 100:.2f}), at least {r[4] * 1000:.1f} mm from the body, "
+              f"{r[6] / r[1] * 100:.1f} % of faces facing away from it")
     return report
 
 
