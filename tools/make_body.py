@@ -28,7 +28,7 @@ Writes:
   coordinates (`f v/vt ...`), every vertex at least GAP = 1 cm from the body.
 - with --sequence, each motion also as OBJ frames arms-raise/frame_0000.obj ... and
   walk/frame_0000.obj ... (the mannequin's faces in every frame; for tests, not committed);
-- with --fine, also tshirt-fine.obj (edges of FINE_EDGE = 0.95 cm, about 9 000 vertices).
+- with --fine, also tshirt-fine.obj (edges of FINE_EDGE = 0.9 cm, about 10 000 vertices).
 
 The body. A field over space, negative inside: ellipsoids and capsules of varying radius,
 each attached to a bone of a skeleton (pelvis, spine, chest, neck, head, collarbones, upper
@@ -1308,7 +1308,7 @@ def write_pc2(path, frames, rate):
 GAP = 0.01  # m: the least distance from a garment's vertex to the body
 EASE = 0.005  # m: how much looser than the gap the T-shirt is made
 TSHIRT_EDGE = 0.0135  # m
-FINE_EDGE = 0.0095  # m: tshirt-fine.obj (--fine), about 9 000 vertices
+FINE_EDGE = 0.009  # m: tshirt-fine.obj (--fine), about 10 000 vertices
 HEM_Y = 0.86  # m: the T-shirt's hem, over the hips
 SLEEVE = 0.16  # m: from the shoulder joint along the arm to the sleeve's end
 
@@ -1515,8 +1515,10 @@ def pattern_uvs(points, tris, panels, iterations=80, margin=0.02):
         sub_tris = [tris[f] for f in faces]
         verts = sorted(set(v for t in sub_tris for v in t))
         uv = flatten(points, sub_tris, {v: init(points[v]) for v in verts}, iterations)
-        uv = flatten(points, sub_tris, untangle(sub_tris, uv), iterations // 4)
-        uv = untangle(sub_tris, uv)
+        for _ in range(8):
+            uv = untangle(sub_tris, flatten(points, sub_tris, untangle(sub_tris, uv), iterations // 4))
+            if all(uv_area(*[uv[v] for v in t]) > 0 for t in sub_tris):
+                break
         for t in sub_tris:
             assert uv_area(*[uv[v] for v in t]) > 0, "a flipped triangle in a flat pattern"
         placed.append((faces, uv))
