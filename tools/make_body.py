@@ -1334,22 +1334,6 @@ def neckline(p):
     return (r - 1.0) * ax, g
 
 
-def silhouette(field, radius=0.12):
-    """Zero where the surface is seen edge-on from the front: the z component of the field's
-    unit gradient (times a typical radius of the body, to read about as metres), positive on
-    the front. Its gradient is taken by central differences."""
-
-    def nz(p):
-        g = field.value_grad(p)[1]
-        return radius * g[2] / norm(g)
-
-    def f(p, h=1e-3):
-        grad = tuple((nz(add(p, e)) - nz(sub(p, e))) / (2 * h) for e in ((h, 0.0, 0.0), (0.0, h, 0.0), (0.0, 0.0, h)))
-        return nz(p), grad
-
-    return f
-
-
 def side_seam(y_shift):
     """Zero on the surface z = z_s(x, y) that parts the T-shirt's front from its back: about
     where the shirt is seen edge-on from the front (over the shoulders 2 cm behind the middle,
@@ -1374,8 +1358,8 @@ def side_seam(y_shift):
 
 def tshirt(field, length, gap):
     """The T-shirt: the level set field = gap + EASE between the hem and the neck, with short
-    sleeves, cut out of the surface and remeshed at `length`; the edges along its silhouette
-    seen from the front are the seams between the front and the back panel."""
+    sleeves, cut out of the surface and remeshed at `length`; the edges along side_seam's
+    surface are the seams between the front and the back panel."""
     iso = gap + EASE
     lo = (-0.46, HEM_Y - 0.05 + field.y_shift, -0.2)
     hi = (0.46, 1.62 + field.y_shift, 0.22)
@@ -1829,13 +1813,13 @@ def towel(field, gap, ease=0.006, iterations=40, drop=0.0):
     for a, b, c in tris:
         for u, w in ((a, b), (b, c), (c, a)):
             if u < w:
-                edges.append((u, w, norm(sub(P[u], P[w])) if False else None))
+                edges.append((u, w))
     rest = {}
     for j in range(nb):
         for i in range(nx):
             rest[j * nx + i] = (i * hx, j * hb)
     cons = []
-    for u, w, _ in sorted(set(edges)):
+    for u, w in sorted(set(edges)):
         ru, rw = rest[u], rest[w]
         cons.append((u, w, math.hypot(ru[0] - rw[0], ru[1] - rw[1])))
     # Bending: the vertices two apart along each grid line keep their distance.
