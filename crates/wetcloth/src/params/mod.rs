@@ -305,16 +305,17 @@ impl SimConfig {
                     .into(),
             });
         }
-        if c.mesh.is_none() && c.model == ClothModel::Springs {
-            if let Some(i) = self.attachments.iter().position(|a| a.stiffness.is_some()) {
-                return Err(ConfigError::Invalid {
-                    key: format!("attach[{i}].stiffness"),
-                    message: "a soft attachment pulls the particles of a mesh cloth: give \
-                              [cloth] a `mesh`, set `model = \"membrane\"` for the grid, or \
-                              leave `stiffness` out for a hard attachment"
-                        .into(),
-                });
-            }
+        if c.mesh.is_none()
+            && c.model == ClothModel::Springs
+            && let Some(i) = self.attachments.iter().position(|a| a.stiffness.is_some())
+        {
+            return Err(ConfigError::Invalid {
+                key: format!("attach[{i}].stiffness"),
+                message: "a soft attachment pulls the particles of a mesh cloth: give \
+                          [cloth] a `mesh`, set `model = \"membrane\"` for the grid, or \
+                          leave `stiffness` out for a hard attachment"
+                    .into(),
+            });
         }
         for (i, s) in c.seams.iter().enumerate() {
             s.validate(i, c.particle_count())?;
