@@ -1,0 +1,1011 @@
+//! Self-contact of a mesh cloth: vertex-triangle and edge-edge proximity, with the side each
+//! pair belongs on taken from the step's start.
+//!
+//! The particle spheres of [`super::self_collision`] keep particles apart, but a garment's
+//! edges (centimetres) are far longer than the spheres (millimetres): a sleeve's particles
+//! pass between the torso's. Here the cloth is its triangles, `h = 2 * radius` thick: every
+//! vertex closer than `h` to a triangle it is not a corner of, and every two edges sharing no
+//! vertex closer than `h` to each other, are pushed apart by position corrections after the
+//! step, as the sphere self-collision's are.
+//!
+//! **Which side.** A vertex belongs on the side of the triangle it was on at the step's start
+//! (two edges: the side of the line through one the other was on). Each step the simulation
+//! hands the positions at its start to [`MeshSelf::begin_step`]; a pair whose plane of contact
+//! the step took the vertex (or edge) through is tested for a real crossing by continuous
+//! collision: the times at which the four moving points are coplanar (a cubic in time, the
+//! positions moving linearly over the step) are found by bisection between the cubic's turning
+//! points, and at the first at which the vertex is inside the triangle (the two edges meet), the
+//! pair crossed. A crossed pair is pushed back to the side it came from, however far the step
+//! carried it (a patch thrown at a sheet at metres per second); any other pair closer than `h`
+//! is pushed apart along the line between its closest points.
+//!
+//! **The push.** A contact moves its four points (vertex and triangle corners, or two edges'
+//! ends) along one direction, by their barycentric weights times their inverse masses (held
+//! particles do not move), so that it conserves momentum; all contacts are computed from the
+//! same positions, each scaled down by the most contacts any of its particles takes part in
+//! (a Jacobi iteration that does not overshoot), then summed per particle in the contacts' order
+//! (fixed, whatever the thread count) and applied; a few iterations, until no pair is closer
+//! than `h` less a thousandth of it.
+//!
+//! **Rest neighbours.** A pair closer at rest than `h` (a mesh finer than its thickness) is kept
+//! at its rest distance instead, as the sphere self-collision keeps its rest neighbours; pairs
+//! that share a vertex, and the pairs of [`ExemptPairs`] (seams), are never tested.
+//!
+//! **Broad phase.** A bounding volume hierarchy over the triangles' boxes, each box the sweep
+//! of its corners over the step widened by a skin. The lists of candidate pairs it finds hold
+//! while every particle stays in its box (start and end of every step), so a cloth that settles
+//! rebuilds them rarely; a fast one rebuilds every step. Lists and hierarchy are rebuilt, never
+//! saved: a checkpoint does not carry them, and a resumed run finds the same contacts in the same
+//! order, so it continues bit for bit.
+
+use super::self_collision::ExemptPairs;
+use crate::math::{Real, Soa, Vec3};
+use crate::model::ClothMesh;
+use rayon::prelude::*;
+
+/// Most Jacobi iterations of the corrections per step.
+pub const MAX_ITERATIONS: usize = 24;
+
+/// The skin of the candidate lists, as a multiple of the thickness `h`.
+const SKIN: Real = 2.0;
+
+/// A pair whose shortfall from its distance is below this share of it is resolved.
+const SLACK: Real = 1e-3;
+
+/// Most triangles in a leaf of the hierarchy.
+const LEAF: usize = 4;
+
+/// A candidate pair: a vertex and a triangle, or two edges (indices into the mesh's edges),
+/// and the distance they are kept at (m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Pair {
+    a: u32,
+    b: u32,
+    target: Real,
+}
+
+/// One contact's correction: its four particles move by `amount[i] * direction`.
+#[derive(Clone, Copy, Debug)]
+struct Push {
+    particles: [u32; 4],
+    amount: [Real; 4],
+    direction: Vec3,
+}
+
+/// A node of the hierarchy: a box, and either a run of triangles (`count > 0`) or two children
+/// (the left one right after it, the right one at `right`).
+#[derive(Clone, Copy, Debug, Default)]
+struct Node {
+    lo: Vec3,
+    hi: Vec3,
+    first: u32,
+    count: u32,
+    right: u32,
+}
+
+/// A bounding volume hierarchy over boxes, split at the median along the widest axis of their
+/// centres (ties by index, so the same boxes build the same tree).
+#[derive(Clone, Debug, Default)]
+struct Bvh {
+    nodes: Vec<Node>,
+    order: Vec<u32>,
+}
+
+impl Bvh {
+    fn build(&mut self, lo: &[Vec3], hi: &[Vec3]) {
+        self.nodes.clear();
+        self.order.clear();
+        self.order.extend(0..lo.len() as u32);
+        if !lo.is_empty() {
+            self.split(lo, hi, 0, lo.len());
+        }
+    }
+
+    fn split(&mut self, lo: &[Vec3], hi: &[Vec3], first: usize, end: usize) -> u32 {
+        let index = self.nodes.len();
+        let (mut blo, mut bhi) = (Vec3::splat(Real::INFINITY), Vec3::splat(-Real::INFINITY));
+        let (mut clo, mut chi) = (blo, bhi);
+        for &i in &self.order[first..end] {
+            let i = i as usize;
+            blo = blo.min(lo[i]);
+            bhi = bhi.max(hi[i]);
+            let c = lo[i] + hi[i];
+            clo = clo.min(c);
+            chi = chi.max(c);
+        }
+        self.nodes.push(Node {
+            lo: blo,
+            hi: bhi,
+            first: first as u32,
+            count: (end - first) as u32,
+            right: 0,
+        });
+        if end - first <= LEAF {
+            return index as u32;
+        }
+        let extent = chi - clo;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let mid = (end - first) / 2;
+        let centre = |i: u32| (lo[i as usize] + hi[i as usize])[axis];
+        self.order[first..end].select_nth_unstable_by(mid, |&i, &j| {
+            centre(i).total_cmp(&centre(j)).then(i.cmp(&j))
+        });
+        self.nodes[index].count = 0;
+        self.split(lo, hi, first, first + mid);
+        let right = self.split(lo, hi, first + mid, end);
+        self.nodes[index].right = right;
+        index as u32
+    }
+
+    /// Calls `hit` with every box overlapping `[lo, hi]`, in the tree's order.
+    fn query(&self, lo: Vec3, hi: Vec3, mut hit: impl FnMut(u32)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        // Depth-first; a balanced tree of 2^22 triangles is 21 levels deep.
+        let mut stack = [0u32; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let index = stack[top];
+            let node = &self.nodes[index as usize];
+            if node.lo.cmpgt(hi).any() || lo.cmpgt(node.hi).any() {
+                continue;
+            }
+            if node.count > 0 {
+                for &i in &self.order[node.first as usize..(node.first + node.count) as usize] {
+                    hit(i);
+                }
+            } else {
+                stack[top] = index + 1;
+                stack[top + 1] = node.right;
+                top += 2;
+            }
+        }
+    }
+
+    fn heap_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<Node>() + self.order.capacity() * 4
+    }
+}
+
+/// Vertex-triangle and edge-edge self-contact of a mesh cloth (see the module docs): the
+/// positions at the step's start, the candidate lists and their boxes, and scratch. Nothing of
+/// it is saved in a checkpoint.
+#[derive(Clone, Debug, Default)]
+pub struct MeshSelf {
+    /// The thickness `h`, m: the distance pairs are kept at.
+    thickness: Real,
+    /// Each triangle's edges (indices into the mesh's edges).
+    triangle_edges: Vec<[u32; 3]>,
+    /// Positions at the start of the step being taken, m.
+    start: Soa,
+    /// Whether the candidate lists are of the current exempt pairs.
+    lists_valid: bool,
+    /// The box each particle may be anywhere in while the lists hold, m.
+    lo: Vec<Vec3>,
+    hi: Vec<Vec3>,
+    /// Candidate pairs: vertex-triangle, then edge-edge, each sorted.
+    vertex_triangle: Vec<Pair>,
+    edge_edge: Vec<Pair>,
+    bvh: Bvh,
+    /// Scratch of the iterations.
+    pushes: Vec<Push>,
+    count: Vec<u32>,
+    sum: Vec<Vec3>,
+    touched: Vec<u32>,
+    /// How many times the candidate lists were built.
+    pub rebuilds: u64,
+    /// Contacts found at the first iteration of the last step.
+    pub contacts: usize,
+}
+
+impl MeshSelf {
+    /// Self-contact of `mesh`, `thickness` (m) thick.
+    pub fn new(mesh: &ClothMesh, thickness: Real) -> Self {
+        let edge_of = |a: u32, b: u32| {
+            let key = [a.min(b), a.max(b)];
+            mesh.edges
+                .binary_search(&key)
+                .expect("every side of a triangle is an edge") as u32
+        };
+        let triangle_edges = mesh
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| [edge_of(a, b), edge_of(b, c), edge_of(c, a)])
+            .collect();
+        Self {
+            thickness,
+            triangle_edges,
+            ..Default::default()
+        }
+    }
+
+    /// The thickness `h` pairs are kept apart by, m.
+    pub fn thickness(&self) -> Real {
+        self.thickness
+    }
+
+    /// Number of candidate pairs (vertex-triangle, edge-edge) in the current lists.
+    pub fn candidate_count(&self) -> (usize, usize) {
+        (self.vertex_triangle.len(), self.edge_edge.len())
+    }
+
+    /// Records the positions at the start of a step (m): the side each pair belongs on.
+    pub fn begin_step(&mut self, x: &Soa) {
+        self.start.clone_from(x);
+    }
+
+    /// Forgets the candidate lists (the exempt pairs changed, or the particles were moved).
+    pub fn invalidate(&mut self) {
+        self.lists_valid = false;
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.start.heap_bytes()
+            + self.triangle_edges.capacity() * 12
+            + (self.lo.capacity() + self.hi.capacity() + self.sum.capacity()) * size_of::<Vec3>()
+            + (self.vertex_triangle.capacity() + self.edge_edge.capacity()) * size_of::<Pair>()
+            + self.pushes.capacity() * size_of::<Push>()
+            + (self.count.capacity() + self.touched.capacity()) * 4
+            + self.bvh.heap_bytes()
+    }
+
+    /// Whether every particle's start and end positions are in its box.
+    fn lists_hold(&self, x: &Soa) -> bool {
+        let n = x.len();
+        if !self.lists_valid || self.lo.len() != n {
+            return false;
+        }
+        let inside = |k: usize| {
+            let (lo, hi) = (self.lo[k], self.hi[k]);
+            let (a, b) = (self.start.get(k), x.get(k));
+            lo.cmple(a).all() && a.cmple(hi).all() && lo.cmple(b).all() && b.cmple(hi).all()
+        };
+        if crate::exec::use_pool(n) {
+            (0..n).into_par_iter().with_min_len(1024).all(inside)
+        } else {
+            (0..n).all(inside)
+        }
+    }
+
+    /// Builds the candidate lists for start positions `self.start` and end positions `x`.
+    fn rebuild(&mut self, mesh: &ClothMesh, x: &Soa, exempt: &ExemptPairs) {
+        self.rebuilds += 1;
+        self.lists_valid = true;
+        let n = x.len();
+        let h = self.thickness;
+        let half_skin = 0.5 * SKIN * h;
+        self.lo.clear();
+        self.hi.clear();
+        for k in 0..n {
+            let (a, b) = (self.start.get(k), x.get(k));
+            self.lo.push(a.min(b) - Vec3::splat(half_skin));
+            self.hi.push(a.max(b) + Vec3::splat(half_skin));
+        }
+        // How far each particle may be from its end position while the lists hold.
+        let reach: Vec<Real> = (0..n).map(|k| (self.hi[k] - self.lo[k]).length()).collect();
+        let (lo, hi) = (&self.lo, &self.hi);
+        let triangles = &mesh.triangles;
+        let (tlo, thi): (Vec<Vec3>, Vec<Vec3>) = triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| i as usize);
+                (lo[a].min(lo[b]).min(lo[c]), hi[a].max(hi[b]).max(hi[c]))
+            })
+            .unzip();
+        self.bvh.build(&tlo, &thi);
+        let bvh = &self.bvh;
+        let grow = Vec3::splat(h);
+        let triangle_reach = |t: usize| {
+            let [a, b, c] = triangles[t].map(|i| reach[i as usize]);
+            a.max(b).max(c)
+        };
+        // Vertex-triangle: every triangle whose box comes within h of the vertex's, not one of
+        // the vertex's own, not holding an exempt partner, that can come within h of it.
+        let per_vertex = map_collect(n, |v| {
+            let mut out = Vec::new();
+            let p = x.get(v);
+            bvh.query(lo[v] - grow, hi[v] + grow, |t| {
+                let tri = &triangles[t as usize];
+                if tri.contains(&(v as u32)) || exempt.any(v, tri) {
+                    return;
+                }
+                let [a, b, c] = tri.map(|i| x.get(i as usize));
+                let w = closest_on_triangle(p, a, b, c);
+                let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
+                if d <= h + reach[v] + triangle_reach(t as usize) {
+                    let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
+                    let rp = mesh.rest[v];
+                    let wr = closest_on_triangle(rp, ra, rb, rc);
+                    let rest = (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length();
+                    out.push(Pair {
+                        a: v as u32,
+                        b: t,
+                        target: h.min(rest),
+                    });
+                }
+            });
+            out.sort_unstable_by_key(|p| p.b);
+            out
+        });
+        self.vertex_triangle.clear();
+        self.vertex_triangle.extend(per_vertex.into_iter().flatten());
+        // Edge-edge: the edges of every triangle whose box comes within h of the edge's, of
+        // higher index (each pair once), sharing no vertex, not exempt.
+        let edges = &mesh.edges;
+        let triangle_edges = &self.triangle_edges;
+        let per_edge = map_collect(edges.len(), |e| {
+            let mut out: Vec<Pair> = Vec::new();
+            let [a, b] = edges[e].map(|i| i as usize);
+            let (elo, ehi) = (lo[a].min(lo[b]) - grow, hi[a].max(hi[b]) + grow);
+            let (pa, pb) = (x.get(a), x.get(b));
+            let ra = reach[a].max(reach[b]);
+            bvh.query(elo, ehi, |t| {
+                for &f in &triangle_edges[t as usize] {
+                    if f as usize <= e || out.iter().any(|p| p.b == f) {
+                        continue;
+                    }
+                    let [c, d] = edges[f as usize].map(|i| i as usize);
+                    if c == a || c == b || d == a || d == b {
+                        continue;
+                    }
+                    if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32])
+                    {
+                        continue;
+                    }
+                    let (pc, pd) = (x.get(c), x.get(d));
+                    let (s, u) = closest_on_segments(pa, pb, pc, pd);
+                    let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
+                    if gap <= h + ra + reach[c].max(reach[d]) {
+                        let r = [a, b, c, d].map(|i| mesh.rest[i]);
+                        let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
+                        let rest = (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length();
+                        out.push(Pair {
+                            a: e as u32,
+                            b: f,
+                            target: h.min(rest),
+                        });
+                    }
+                }
+            });
+            out.sort_unstable_by_key(|p| p.b);
+            out
+        });
+        self.edge_edge.clear();
+        self.edge_edge.extend(per_edge.into_iter().flatten());
+    }
+
+    /// Resolves the proximities of the mesh cloth `mesh` at positions `x` (m), the side of each
+    /// pair taken from the positions [`MeshSelf::begin_step`] recorded (or `x` itself if none
+    /// were). `inv_mass` weighs the moves; `held` particles do not move; the pairs of `exempt`
+    /// are left alone. Returns the number of contacts found (at the first iteration).
+    pub fn solve(
+        &mut self,
+        mesh: &ClothMesh,
+        x: &mut Soa,
+        inv_mass: &[Real],
+        held: &[bool],
+        exempt: &ExemptPairs,
+    ) -> usize {
+        let n = x.len();
+        self.contacts = 0;
+        if self.thickness <= 0.0 || n == 0 {
+            return 0;
+        }
+        if self.start.len() != n {
+            self.start.clone_from(x);
+        }
+        if !self.lists_hold(x) {
+            self.rebuild(mesh, x, exempt);
+        }
+        if self.vertex_triangle.is_empty() && self.edge_edge.is_empty() {
+            return 0;
+        }
+        if self.count.len() != n {
+            self.count = vec![0; n];
+            self.sum = vec![Vec3::ZERO; n];
+        }
+        let im = |k: u32| {
+            let k = k as usize;
+            if held[k] { 0.0 } else { inv_mass[k] }
+        };
+        for iteration in 0..MAX_ITERATIONS {
+            let (x0, x1) = (&self.start, &*x);
+            let (vt, ee) = (&self.vertex_triangle, &self.edge_edge);
+            let (triangles, edges) = (&mesh.triangles, &mesh.edges);
+            let contact = |i: usize| -> Option<Push> {
+                if i < vt.len() {
+                    let p = vt[i];
+                    let [a, b, c] = triangles[p.b as usize];
+                    vertex_triangle(x0, x1, [p.a, a, b, c], p.target, im)
+                } else {
+                    let p = ee[i - vt.len()];
+                    let [a, b] = edges[p.a as usize];
+                    let [c, d] = edges[p.b as usize];
+                    edge_edge(x0, x1, [a, b, c, d], p.target, im)
+                }
+            };
+            let total = vt.len() + ee.len();
+            self.pushes.clear();
+            if crate::exec::use_pool(total) {
+                self.pushes.par_extend(
+                    (0..total)
+                        .into_par_iter()
+                        .with_min_len(512)
+                        .filter_map(contact),
+                );
+            } else {
+                self.pushes.extend((0..total).filter_map(contact));
+            }
+            if self.pushes.is_empty() {
+                break;
+            }
+            if iteration == 0 {
+                self.contacts = self.pushes.len();
+            }
+            // Each particle's number of contacts; each contact scaled by its busiest particle's.
+            for push in &self.pushes {
+                for (&k, &m) in push.particles.iter().zip(&push.amount) {
+                    if m != 0.0 {
+                        if self.count[k as usize] == 0 {
+                            self.touched.push(k);
+                        }
+                        self.count[k as usize] += 1;
+                    }
+                }
+            }
+            for push in &self.pushes {
+                let busiest = push
+                    .particles
+                    .iter()
+                    .zip(&push.amount)
+                    .filter(|&(_, &m)| m != 0.0)
+                    .map(|(&k, _)| self.count[k as usize])
+                    .max()
+                    .unwrap_or(1);
+                let scale = 1.0 / busiest as Real;
+                for (&k, &m) in push.particles.iter().zip(&push.amount) {
+                    if m != 0.0 {
+                        self.sum[k as usize] += push.direction * (m * scale);
+                    }
+                }
+            }
+            for &k in &self.touched {
+                let k = k as usize;
+                x.set(k, x.get(k) + self.sum[k]);
+                self.sum[k] = Vec3::ZERO;
+                self.count[k] = 0;
+            }
+            self.touched.clear();
+        }
+        self.contacts
+    }
+}
+
+/// `f(0..n)` collected in order, split over the pool when `n` is large enough.
+fn map_collect<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
+    if crate::exec::use_pool(n) {
+        (0..n).into_par_iter().with_min_len(256).map(f).collect()
+    } else {
+        (0..n).map(f).collect()
+    }
+}
+
+/// The sign of `v` as -1, 0 or 1.
+#[inline]
+fn sign(v: Real) -> Real {
+    if v > 0.0 {
+        1.0
+    } else if v < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// The contact of vertex `q[0]` and triangle `q[1..4]` kept `target` (m) apart, from start
+/// positions `x0` and end positions `x1`; `im` gives inverse masses. `None` when they are far
+/// enough apart on the right side.
+#[inline]
+fn vertex_triangle(
+    x0: &Soa,
+    x1: &Soa,
+    q: [u32; 4],
+    target: Real,
+    im: impl Fn(u32) -> Real,
+) -> Option<Push> {
+    let [p1, a1, b1, c1] = q.map(|k| x1.get(k as usize));
+    let w = closest_on_triangle(p1, a1, b1, c1);
+    let closest = a1 * w[0] + b1 * w[1] + c1 * w[2];
+    let d = (p1 - closest).length();
+    let normal1 = (b1 - a1).cross(c1 - a1);
+    let f1 = (p1 - a1).dot(normal1);
+    let [p0, a0, b0, c0] = q.map(|k| x0.get(k as usize));
+    let f0 = (p0 - a0).dot((b0 - a0).cross(c0 - a0));
+    let flipped = (f0 > 0.0 && f1 < 0.0) || (f0 < 0.0 && f1 > 0.0);
+    if d >= target * (1.0 - SLACK) && !flipped {
+        return None;
+    }
+    let crossed = flipped
+        && coplanar_time([p0 - a0, p1 - a1], [b0 - a0, b1 - a1], [c0 - a0, c1 - a1], |t| {
+            let [p, a, b, c] = [(p0, p1), (a0, a1), (b0, b1), (c0, c1)].map(|(u, v)| lerp(u, v, t));
+            inside_triangle(p, a, b, c)
+        });
+    let length = normal1.length();
+    let (direction, shortfall) = if crossed {
+        if length == 0.0 {
+            return None;
+        }
+        // Back to the start's side of the plane, `target` off it.
+        let n = normal1 * (sign(f0) / length);
+        (n, target - (p1 - a1).dot(n))
+    } else {
+        if d >= target * (1.0 - SLACK) {
+            return None;
+        }
+        let n = if d > 1e-12 * target {
+            (p1 - closest) / d
+        } else {
+            let side = if f0 != 0.0 { sign(f0) } else { sign(f1) };
+            if length == 0.0 || side == 0.0 {
+                return None;
+            }
+            normal1 * (side / length)
+        };
+        (n, target - d)
+    };
+    let weight = [1.0, -w[0], -w[1], -w[2]];
+    push(q, weight, direction, shortfall, im)
+}
+
+/// The contact of edges `q[0..2]` and `q[2..4]` kept `target` (m) apart (see
+/// [`vertex_triangle`]).
+#[inline]
+fn edge_edge(
+    x0: &Soa,
+    x1: &Soa,
+    q: [u32; 4],
+    target: Real,
+    im: impl Fn(u32) -> Real,
+) -> Option<Push> {
+    let [a1, b1, c1, d1] = q.map(|k| x1.get(k as usize));
+    let (s, u) = closest_on_segments(a1, b1, c1, d1);
+    let (p, r) = (a1.lerp(b1, s), c1.lerp(d1, u));
+    let d = (p - r).length();
+    let m1 = (b1 - a1).cross(d1 - c1);
+    let f1 = (c1 - a1).dot(m1);
+    let [a0, b0, c0, d0] = q.map(|k| x0.get(k as usize));
+    let m0 = (b0 - a0).cross(d0 - c0);
+    let f0 = (c0 - a0).dot(m0);
+    let flipped = (f0 > 0.0 && f1 < 0.0) || (f0 < 0.0 && f1 > 0.0);
+    if d >= target * (1.0 - SLACK) && !flipped {
+        return None;
+    }
+    let crossed = flipped
+        && coplanar_time([c0 - a0, c1 - a1], [b0 - a0, b1 - a1], [d0 - c0, d1 - c1], |t| {
+            let [a, b, c, d] = [(a0, a1), (b0, b1), (c0, c1), (d0, d1)].map(|(v, w)| lerp(v, w, t));
+            let (s, u) = closest_on_segments(a, b, c, d);
+            let gap = (a.lerp(b, s) - c.lerp(d, u)).length();
+            gap <= 1e-6 * ((b - a).length() + (d - c).length())
+        });
+    // The first edge's side of the second: `(a - c) . m`, that is `-f`.
+    let length = m1.length();
+    let (direction, shortfall) = if crossed {
+        let n = if length > 1e-9 * (b1 - a1).length() * (d1 - c1).length() {
+            m1 * (-sign(f0) / length)
+        } else {
+            let apart = a0.lerp(b0, s) - c0.lerp(d0, u);
+            let l = apart.length();
+            if l == 0.0 {
+                return None;
+            }
+            apart / l
+        };
+        (n, target - (p - r).dot(n))
+    } else {
+        if d >= target * (1.0 - SLACK) {
+            return None;
+        }
+        let n = if d > 1e-12 * target {
+            (p - r) / d
+        } else {
+            let side = if f0 != 0.0 { -sign(f0) } else { -sign(f1) };
+            if length == 0.0 || side == 0.0 {
+                return None;
+            }
+            m1 * (side / length)
+        };
+        (n, target - d)
+    };
+    let weight = [1.0 - s, s, u - 1.0, -u];
+    push(q, weight, direction, shortfall, im)
+}
+
+/// The push moving particles `q` by `weight[i] * im(q[i]) * lambda` along `direction`, with
+/// `lambda` such that the weighted sum of the moves along it is `shortfall` (m). Momentum is
+/// conserved when the weights sum to zero. `None` if nothing can move.
+#[inline]
+fn push(
+    q: [u32; 4],
+    weight: [Real; 4],
+    direction: Vec3,
+    shortfall: Real,
+    im: impl Fn(u32) -> Real,
+) -> Option<Push> {
+    if !(shortfall > 0.0) || !direction.is_finite() {
+        return None;
+    }
+    let inv = q.map(&im);
+    let denominator: Real = (0..4).map(|i| weight[i] * weight[i] * inv[i]).sum();
+    if !(denominator > 0.0) {
+        return None;
+    }
+    let lambda = shortfall / denominator;
+    Some(Push {
+        particles: q,
+        amount: [0, 1, 2, 3].map(|i| weight[i] * inv[i] * lambda),
+        direction,
+    })
+}
+
+/// `a` at `t = 0` to `b` at `t = 1`, exactly at both ends.
+#[inline]
+fn lerp(a: Vec3, b: Vec3, t: Real) -> Vec3 {
+    a * (1.0 - t) + b * t
+}
+
+/// Whether `p`, in the plane of triangle `(a, b, c)`, is inside it (a millionth of its size
+/// outside counts as inside).
+fn inside_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
+    let n = (b - a).cross(c - a);
+    let n2 = n.length_squared();
+    if n2 == 0.0 {
+        return false;
+    }
+    let tolerance = -1e-6 * n2;
+    (b - a).cross(p - a).dot(n) >= tolerance
+        && (c - b).cross(p - b).dot(n) >= tolerance
+        && (a - c).cross(p - c).dot(n) >= tolerance
+}
+
+/// The first time `t` in [0, 1] at which `y(t) . (e(t) x g(t))` is zero (each vector moving
+/// linearly from its `[start, end]`) and `accept(t)` holds: the moments four moving points are
+/// coplanar, in order. The triple product is a cubic in `t`; its roots are bracketed between
+/// its turning points and found by bisection on the product itself.
+fn coplanar_time(y: [Vec3; 2], e: [Vec3; 2], g: [Vec3; 2], accept: impl Fn(Real) -> bool) -> bool {
+    let f = |t: Real| lerp(y[0], y[1], t).dot(lerp(e[0], e[1], t).cross(lerp(g[0], g[1], t)));
+    // Coefficients of the cubic k0 + k1 t + k2 t^2 + k3 t^3, for its turning points.
+    let (vy, ve, vg) = (y[1] - y[0], e[1] - e[0], g[1] - g[0]);
+    let mixed = ve.cross(g[0]) + e[0].cross(vg);
+    let k1 = vy.dot(e[0].cross(g[0])) + y[0].dot(mixed);
+    let k2 = vy.dot(mixed) + y[0].dot(ve.cross(vg));
+    let k3 = vy.dot(ve.cross(vg));
+    // Roots of 3 k3 t^2 + 2 k2 t + k1 in (0, 1).
+    let mut cuts = [0.0, 1.0, 1.0, 1.0];
+    let mut count = 1;
+    let (qa, qb, qc) = (3.0 * k3, 2.0 * k2, k1);
+    let scale = qa.abs().max(qb.abs()).max(qc.abs());
+    if scale > 0.0 {
+        if qa.abs() > 1e-12 * scale {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc >= 0.0 {
+                let root = disc.sqrt();
+                // The numerically stable pair of roots.
+                let w = -0.5 * (qb + qb.signum() * root);
+                for t in [w / qa, if w != 0.0 { qc / w } else { Real::NAN }] {
+                    if t > 0.0 && t < 1.0 {
+                        cuts[count] = t;
+                        count += 1;
+                    }
+                }
+            }
+        } else if qb != 0.0 {
+            let t = -qc / qb;
+            if t > 0.0 && t < 1.0 {
+                cuts[count] = t;
+                count += 1;
+            }
+        }
+    }
+    cuts[count] = 1.0;
+    count += 1;
+    let cuts = &mut cuts[..count];
+    cuts.sort_unstable_by(Real::total_cmp);
+    for w in cuts.windows(2) {
+        let (mut lo, mut hi) = (w[0], w[1]);
+        let (flo, fhi) = (f(lo), f(hi));
+        let root = if flo == 0.0 {
+            lo
+        } else if fhi == 0.0 {
+            hi
+        } else if (flo > 0.0) != (fhi > 0.0) {
+            for _ in 0..64 {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                let fm = f(mid);
+                if fm == 0.0 {
+                    lo = mid;
+                    hi = mid;
+                    break;
+                }
+                if (fm > 0.0) == (flo > 0.0) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        } else {
+            continue;
+        };
+        if accept(root) {
+            return true;
+        }
+    }
+    false
+}
+
+/// The point of triangle `(a, b, c)` closest to `p`, as the barycentric weights of `a`, `b`
+/// and `c` (by the regions of the triangle's corners, sides and face).
+pub(crate) fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> [Real; 3] {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
+    }
+    let total = va + vb + vc;
+    if !(total > 0.0) {
+        // A crushed triangle: the nearest of its sides.
+        let sides = [(a, b, [0, 1]), (b, c, [1, 2]), (c, a, [2, 0])];
+        let mut best = (Real::INFINITY, [1.0, 0.0, 0.0]);
+        for (u, v, [i, j]) in sides {
+            let (s, _) = closest_on_segments(u, v, p, p);
+            let d = (u.lerp(v, s) - p).length_squared();
+            if d < best.0 {
+                let mut w = [0.0; 3];
+                w[i] = 1.0 - s;
+                w[j] = s;
+                best = (d, w);
+            }
+        }
+        return best.1;
+    }
+    let (v, w) = (vb / total, vc / total);
+    [1.0 - v - w, v, w]
+}
+
+/// The parameters `(s, u)` of the closest points `a + s (b - a)` and `c + u (d - c)` of two
+/// segments, each in [0, 1].
+pub(crate) fn closest_on_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (Real, Real) {
+    let (e, g, r) = (b - a, d - c, a - c);
+    let (ee, gg, gr) = (e.dot(e), g.dot(g), g.dot(r));
+    if ee <= Real::MIN_POSITIVE && gg <= Real::MIN_POSITIVE {
+        return (0.0, 0.0);
+    }
+    if ee <= Real::MIN_POSITIVE {
+        return (0.0, (gr / gg).clamp(0.0, 1.0));
+    }
+    let er = e.dot(r);
+    if gg <= Real::MIN_POSITIVE {
+        return ((-er / ee).clamp(0.0, 1.0), 0.0);
+    }
+    let eg = e.dot(g);
+    let denominator = ee * gg - eg * eg;
+    let mut s = if denominator > 1e-14 * ee * gg {
+        ((eg * gr - er * gg) / denominator).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mut u = (eg * s + gr) / gg;
+    if u < 0.0 {
+        u = 0.0;
+        s = (-er / ee).clamp(0.0, 1.0);
+    } else if u > 1.0 {
+        u = 1.0;
+        s = ((eg - er) / ee).clamp(0.0, 1.0);
+    }
+    (s, u)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One triangle and one separate vertex as a mesh (two pieces), and its self-contact.
+    fn vertex_over_triangle() -> (ClothMesh, MeshSelf) {
+        let rest = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.02, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.02),
+            Vec3::new(0.1, 0.0, 0.0),
+            Vec3::new(0.12, 0.0, 0.0),
+            Vec3::new(0.1, 0.0, 0.02),
+        ];
+        let mesh = ClothMesh::new(rest, vec![[0, 2, 1], [3, 5, 4]]).unwrap();
+        let contact = MeshSelf::new(&mesh, 0.002);
+        (mesh, contact)
+    }
+
+    fn soa(v: &[Vec3]) -> Soa {
+        Soa::from_vec3(v)
+    }
+
+    fn momentum(x: &Soa, y: &Soa, inv_mass: &[Real]) -> Vec3 {
+        (0..x.len())
+            .map(|k| (y.get(k) - x.get(k)) / inv_mass[k])
+            .sum()
+    }
+
+    /// A corner of the second triangle that went through the first during the step (10 mm in
+    /// one step, five thicknesses) is put back on the side it came from, `h` off the first
+    /// triangle, with the momentum of the move unchanged; one that came from below is put back
+    /// below.
+    #[test]
+    fn a_vertex_that_crossed_a_triangle_goes_back_to_its_side() {
+        for from in [1.0, -1.0] {
+            let (mesh, mut contact) = vertex_over_triangle();
+            let p = Vec3::new(0.005, 0.004 * from, 0.005);
+            let far = [
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(0.02, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, 0.02),
+                p,
+                p + Vec3::new(0.02, 0.0, 0.0),
+                p + Vec3::new(0.0, 0.0, 0.02),
+            ];
+            let start = soa(&far);
+            let mut end = far;
+            end[3].y -= 0.01 * from;
+            let end = soa(&end);
+            contact.begin_step(&start);
+            let mut x = end.clone();
+            let inv_mass = [1.0, 2.0, 1.0, 1.0, 3.0, 1.0];
+            let hits = contact.solve(
+                &mesh,
+                &mut x,
+                &inv_mass,
+                &[false; 6],
+                &ExemptPairs::default(),
+            );
+            assert!(hits >= 1);
+            let [a, b, c] = [0, 1, 2].map(|k| x.get(k));
+            let normal = (b - a).cross(c - a).normalize();
+            let height = (x.get(3) - a).dot(normal) * normal.y.signum();
+            assert!(
+                from * height >= 0.002 * (1.0 - 2.0 * SLACK),
+                "from {from}: {height}"
+            );
+            let p = momentum(&end, &x, &inv_mass);
+            assert!(p.length() < 1e-12, "momentum {p}");
+        }
+    }
+
+    /// Held particles do not move: the free vertex takes the whole correction.
+    #[test]
+    fn held_particles_do_not_move() {
+        let (mesh, mut contact) = vertex_over_triangle();
+        let mut x = mesh.rest_positions();
+        let p = Vec3::new(0.005, 0.0005, 0.005);
+        x.set(3, p);
+        contact.begin_step(&x);
+        let held = [true, true, true, false, false, false];
+        let before = x.clone();
+        contact.solve(&mesh, &mut x, &[1.0; 6], &held, &ExemptPairs::default());
+        for k in 0..3 {
+            assert_eq!(x.get(k), before.get(k));
+        }
+        assert!(x.get(3).y >= 0.002 * (1.0 - 2.0 * SLACK), "{}", x.get(3));
+    }
+
+    /// Two edges that crossed during the step are put back on their sides.
+    #[test]
+    fn edges_that_crossed_go_back() {
+        // Two triangles far apart at rest; at the start one's edge lies 3 mm above the
+        // other's, crosswise; at the end 3 mm below.
+        let rest = vec![
+            Vec3::new(-0.01, 0.0, 0.0),
+            Vec3::new(0.01, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -0.02),
+            Vec3::new(0.0, 0.1, -0.01),
+            Vec3::new(0.0, 0.1, 0.01),
+            Vec3::new(0.02, 0.1, 0.0),
+        ];
+        let mesh = ClothMesh::new(rest, vec![[0, 1, 2], [3, 4, 5]]).unwrap();
+        let mut contact = MeshSelf::new(&mesh, 0.002);
+        let mut start = mesh.rest_positions();
+        for k in 3..6 {
+            start.set(k, mesh.rest[k] - Vec3::new(0.0, 0.097, 0.0));
+        }
+        let mut x = start.clone();
+        for k in 3..6 {
+            x.set(k, start.get(k) - Vec3::new(0.0, 0.006, 0.0));
+        }
+        contact.begin_step(&start);
+        contact.solve(&mesh, &mut x, &[1.0; 6], &[false; 6], &ExemptPairs::default());
+        // The upper edge (3, 4) along z against the lower one (0, 1) along x: above it, `h`
+        // off.
+        let [a, b, c, d] = [0, 1, 3, 4].map(|k| x.get(k));
+        let (s, u) = closest_on_segments(a, b, c, d);
+        let apart = c.lerp(d, u) - a.lerp(b, s);
+        assert!(apart.y > 0.0, "{apart}");
+        assert!(apart.length() >= 0.002 * (1.0 - 2.0 * SLACK), "{apart}");
+    }
+
+    #[test]
+    fn coplanar_times_are_found_in_order() {
+        // A point falling through the plane y = 0 at t = 0.25, inside a still triangle.
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Z);
+        let (p0, p1) = (Vec3::new(0.2, 1.0, 0.2), Vec3::new(0.2, -3.0, 0.2));
+        let hit = std::cell::Cell::new(Real::NAN);
+        let found = coplanar_time([p0 - a, p1 - a], [b - a, b - a], [c - a, c - a], |t| {
+            hit.set(t);
+            true
+        });
+        assert!(found);
+        assert!((hit.get() - 0.25).abs() < 1e-12, "{}", hit.get());
+        // Beside the triangle: a root, not accepted.
+        let (q0, q1) = (Vec3::new(2.0, 1.0, 2.0), Vec3::new(2.0, -3.0, 2.0));
+        assert!(!coplanar_time(
+            [q0 - a, q1 - a],
+            [b - a, b - a],
+            [c - a, c - a],
+            |t| inside_triangle(lerp(q0, q1, t), a, b, c)
+        ));
+    }
+
+    #[test]
+    fn closest_points_are_right_on_each_region() {
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Z);
+        let w = closest_on_triangle(Vec3::new(0.2, 1.0, 0.3), a, b, c);
+        assert!((w[0] - 0.5).abs() + (w[1] - 0.2).abs() + (w[2] - 0.3).abs() < 1e-15);
+        assert_eq!(
+            closest_on_triangle(Vec3::new(-1.0, 0.0, -1.0), a, b, c),
+            [1.0, 0.0, 0.0]
+        );
+        let w = closest_on_triangle(Vec3::new(1.0, 0.0, 1.0), a, b, c);
+        assert!((w[1] - 0.5).abs() < 1e-15 && (w[2] - 0.5).abs() < 1e-15);
+        let (s, u) = closest_on_segments(
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.5, 1.0, -1.0),
+            Vec3::new(0.5, 1.0, 1.0),
+        );
+        assert!((s - 0.75).abs() < 1e-15 && (u - 0.5).abs() < 1e-15);
+    }
+}
