@@ -459,12 +459,11 @@ impl Simulation {
     /// itself. The pairs are not part of a checkpoint: set them again on a restored
     /// simulation; [`Simulation::reset`] keeps them.
     pub fn set_exempt(&mut self, pairs: &[[u32; 2]]) -> Result<(), ConfigError> {
-        self.exempt = ExemptPairs::new(self.model.len(), pairs).map_err(|message| {
-            ConfigError::Invalid {
+        self.exempt =
+            ExemptPairs::new(self.model.len(), pairs).map_err(|message| ConfigError::Invalid {
                 key: "exempt".into(),
                 message,
-            }
-        })?;
+            })?;
         if let Some(m) = &mut self.mesh_self {
             m.invalidate();
         }

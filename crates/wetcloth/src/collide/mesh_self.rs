@@ -21,22 +21,37 @@
 //!
 //! **The push.** A contact moves its four points (vertex and triangle corners, or two edges'
 //! ends) along one direction, by their barycentric weights times their inverse masses (held
-//! particles do not move), so that it conserves momentum; all contacts are computed from the
-//! same positions, each scaled down by the most contacts any of its particles takes part in
-//! (a Jacobi iteration that does not overshoot), then summed per particle in the contacts' order
-//! (fixed, whatever the thread count) and applied; a few iterations, until no pair is closer
-//! than `h` less a thousandth of it.
+//! particles do not move), so that it conserves momentum. All contacts are computed from the
+//! same positions (Jacobi), each scaled by 1.5 over the most contacts any of its particles
+//! takes part in (at most 1: a lone contact is not overshot), then summed per particle in the
+//! contacts' order (fixed, whatever the thread count) and applied. The first iteration pushes
+//! every pair closer than its distance (a cloth resting on itself stays where it lies instead
+//! of falling a little and being thrown back); the next ones, at most [`MAX_ITERATIONS`] in
+//! all, test only the pairs the last one moved, until none is short of its distance by more
+//! than a hundredth of it.
 //!
 //! **Rest neighbours.** A pair closer at rest than `h` (a mesh finer than its thickness) is kept
 //! at its rest distance instead, as the sphere self-collision keeps its rest neighbours; pairs
 //! that share a vertex, and the pairs of [`ExemptPairs`] (seams), are never tested.
 //!
-//! **Broad phase.** A bounding volume hierarchy over the triangles' boxes, each box the sweep
-//! of its corners over the step widened by a skin. The lists of candidate pairs it finds hold
-//! while every particle stays in its box (start and end of every step), so a cloth that settles
-//! rebuilds them rarely; a fast one rebuilds every step. Lists and hierarchy are rebuilt, never
-//! saved: a checkpoint does not carry them, and a resumed run finds the same contacts in the same
-//! order, so it continues bit for bit.
+//! **Broad phase.** Each particle's box is the sweep of its move over the step, widened by a
+//! skin of `2 h`; a triangle's or an edge's box holds its corners'. Bounding volume hierarchies
+//! over the particles', triangles' and edges' boxes (median splits, ties by index), traversed
+//! two at a time (particles against triangles, edges against themselves) in independent
+//! subtrees over the thread pool, give every pair whose boxes come within `h` of each other
+//! and whose distance could come within `h` while its particles stay in their boxes: the
+//! candidate lists, sorted. They hold while every particle's start and end positions stay in
+//! its box once a common move is taken away (distances do not change when the whole cloth
+//! moves: a falling cloth keeps its lists), so a settling cloth rebuilds them every few tens of
+//! steps. Each step the first iteration also passes over a pair, untested, when it was farther
+//! apart at the build than its distance plus how far both sides have moved since. Lists and
+//! hierarchies are never saved: a checkpoint does not carry them, and since pairs that do not
+//! touch add nothing, a resumed run finds the same contacts in the same order and continues bit
+//! for bit.
+//!
+//! Only the pairs a step brings within `h` (or through each other) are pushed, from where the
+//! step started: a pair already on the wrong side at the step's start (left so by an earlier
+//! step's unfinished iterations, or put there by the caller) is kept on that side.
 
 use super::self_collision::ExemptPairs;
 use crate::math::{Real, Soa, Vec3};
@@ -50,7 +65,11 @@ pub const MAX_ITERATIONS: usize = 24;
 const SKIN: Real = 2.0;
 
 /// A pair whose shortfall from its distance is below this share of it is resolved.
-const SLACK: Real = 1e-3;
+const SLACK: Real = 0.01;
+
+/// Over-relaxation of the Jacobi iterations: each contact is scaled by this over the most
+/// contacts any of its particles takes part in, at most 1 (a lone contact is not overshot).
+const OMEGA: Real = 1.5;
 
 /// Most triangles in a leaf of the hierarchy.
 const LEAF: usize = 4;
@@ -62,6 +81,8 @@ struct Pair {
     a: u32,
     b: u32,
     target: Real,
+    /// Their distance when the lists were built, m.
+    apart: Real,
 }
 
 /// One contact's correction: its four particles move by `amount[i] * direction`.
@@ -89,16 +110,20 @@ struct Node {
 struct Bvh {
     nodes: Vec<Node>,
     order: Vec<u32>,
+    /// The boxes, m.
+    lo: Vec<Vec3>,
+    hi: Vec<Vec3>,
 }
 
 impl Bvh {
-    fn build(&mut self, lo: &[Vec3], hi: &[Vec3]) {
+    fn build(&mut self, lo: Vec<Vec3>, hi: Vec<Vec3>) {
         self.nodes.clear();
         self.order.clear();
         self.order.extend(0..lo.len() as u32);
         if !lo.is_empty() {
-            self.split(lo, hi, 0, lo.len());
+            self.split(&lo, &hi, 0, lo.len());
         }
+        (self.lo, self.hi) = (lo, hi);
     }
 
     fn split(&mut self, lo: &[Vec3], hi: &[Vec3], first: usize, end: usize) -> u32 {
@@ -143,35 +168,151 @@ impl Bvh {
         index as u32
     }
 
-    /// Calls `hit` with every box overlapping `[lo, hi]`, in the tree's order.
-    fn query(&self, lo: Vec3, hi: Vec3, mut hit: impl FnMut(u32)) {
-        if self.nodes.is_empty() {
+    /// Whether node `a` of `self` and node `b` of `other` overlap, `self`'s grown by `grow`.
+    #[inline]
+    fn nodes_meet(&self, a: u32, other: &Bvh, b: u32, grow: Vec3) -> bool {
+        let (p, q) = (&self.nodes[a as usize], &other.nodes[b as usize]);
+        !((p.lo - grow).cmpgt(q.hi).any() || q.lo.cmpgt(p.hi + grow).any())
+    }
+
+    /// Whether box `i` of `self` and box `j` of `other` overlap, `self`'s grown by `grow`.
+    #[inline]
+    fn boxes_meet(&self, i: u32, other: &Bvh, j: u32, grow: Vec3) -> bool {
+        let (i, j) = (i as usize, j as usize);
+        !((self.lo[i] - grow).cmpgt(other.hi[j]).any()
+            || other.lo[j].cmpgt(self.hi[i] + grow).any())
+    }
+
+    #[inline]
+    fn items(&self, node: u32) -> &[u32] {
+        let n = &self.nodes[node as usize];
+        &self.order[n.first as usize..(n.first + n.count) as usize]
+    }
+
+    /// Calls `hit(i, j)` for every box `i` under node `a` of `self` and box `j` under node `b` of
+    /// `other` that overlap, `self`'s grown by `grow`; with `same` (the tree against itself,
+    /// `a` and `b` the same node or disjoint ones) each pair of distinct boxes once.
+    fn pairs(
+        &self,
+        a: u32,
+        other: &Bvh,
+        b: u32,
+        grow: Vec3,
+        same: bool,
+        hit: &mut impl FnMut(u32, u32),
+    ) {
+        if !self.nodes_meet(a, other, b, grow) {
             return;
         }
-        // Depth-first; a balanced tree of 2^22 triangles is 21 levels deep.
-        let mut stack = [0u32; 64];
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let index = stack[top];
-            let node = &self.nodes[index as usize];
-            if node.lo.cmpgt(hi).any() || lo.cmpgt(node.hi).any() {
-                continue;
-            }
-            if node.count > 0 {
-                for &i in &self.order[node.first as usize..(node.first + node.count) as usize] {
-                    hit(i);
+        let (p, q) = (&self.nodes[a as usize], &other.nodes[b as usize]);
+        if same && a == b {
+            if p.count > 0 {
+                let items = self.items(a);
+                for (k, &i) in items.iter().enumerate() {
+                    for &j in &items[k + 1..] {
+                        if self.boxes_meet(i, other, j, grow) {
+                            hit(i, j);
+                        }
+                    }
                 }
             } else {
-                stack[top] = index + 1;
-                stack[top + 1] = node.right;
-                top += 2;
+                self.pairs(a + 1, other, a + 1, grow, same, hit);
+                self.pairs(p.right, other, p.right, grow, same, hit);
+                self.pairs(a + 1, other, p.right, grow, same, hit);
+            }
+            return;
+        }
+        match (p.count > 0, q.count > 0) {
+            (true, true) => {
+                for &i in self.items(a) {
+                    for &j in other.items(b) {
+                        if self.boxes_meet(i, other, j, grow) {
+                            hit(i, j);
+                        }
+                    }
+                }
+            }
+            // Down the inner node; of two, the wider.
+            (false, true) => {
+                self.pairs(a + 1, other, b, grow, same, hit);
+                self.pairs(p.right, other, b, grow, same, hit);
+            }
+            (true, false) => {
+                self.pairs(a, other, b + 1, grow, same, hit);
+                self.pairs(a, other, q.right, grow, same, hit);
+            }
+            (false, false) => {
+                if (p.hi - p.lo).max_element() >= (q.hi - q.lo).max_element() {
+                    self.pairs(a + 1, other, b, grow, same, hit);
+                    self.pairs(p.right, other, b, grow, same, hit);
+                } else {
+                    self.pairs(a, other, b + 1, grow, same, hit);
+                    self.pairs(a, other, q.right, grow, same, hit);
+                }
             }
         }
     }
 
+    /// The pairs of overlapping boxes of `self` and `other` (`self`'s grown by `grow`; with
+    /// `same`, `other` is `self` and each pair of distinct boxes comes once), as the items
+    /// `keep(i, j)` makes of them, in the order of `order`. The traversal is shared out over
+    /// the pool as independent pairs of subtrees.
+    fn collect<T: Send, K: Ord>(
+        &self,
+        other: &Bvh,
+        grow: Real,
+        same: bool,
+        keep: impl Fn(u32, u32) -> Option<T> + Sync + Send,
+        order: impl Fn(&T) -> K,
+    ) -> Vec<T> {
+        if self.nodes.is_empty() || other.nodes.is_empty() {
+            return Vec::new();
+        }
+        let grow = Vec3::splat(grow);
+        // Independent tasks: pairs of subtrees, split a few levels down.
+        let mut tasks = vec![(0u32, 0u32)];
+        for _ in 0..6 {
+            let mut next = Vec::with_capacity(4 * tasks.len());
+            for &(a, b) in &tasks {
+                let (p, q) = (&self.nodes[a as usize], &other.nodes[b as usize]);
+                if same && a == b {
+                    if p.count > 0 {
+                        next.push((a, b));
+                    } else {
+                        next.extend([(a + 1, a + 1), (p.right, p.right), (a + 1, p.right)]);
+                    }
+                } else if !self.nodes_meet(a, other, b, grow) {
+                } else if p.count == 0 {
+                    next.extend([(a + 1, b), (p.right, b)]);
+                } else if q.count == 0 {
+                    next.extend([(a, b + 1), (a, q.right)]);
+                } else {
+                    next.push((a, b));
+                }
+            }
+            tasks = next;
+        }
+        let mut out: Vec<T> = map_collect(tasks.len(), |t| {
+            let (a, b) = tasks[t];
+            let mut found = Vec::new();
+            self.pairs(a, other, b, grow, same, &mut |i, j| {
+                if let Some(item) = keep(i, j) {
+                    found.push(item);
+                }
+            });
+            found
+        })
+        .into_iter()
+        .flatten()
+        .collect();
+        out.sort_unstable_by_key(order);
+        out
+    }
+
     fn heap_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>() + self.order.capacity() * 4
+        self.nodes.capacity() * std::mem::size_of::<Node>()
+            + self.order.capacity() * 4
+            + (self.lo.capacity() + self.hi.capacity()) * std::mem::size_of::<Vec3>()
     }
 }
 
@@ -195,11 +336,18 @@ pub struct MeshSelf {
     vertex_triangle: Vec<Pair>,
     edge_edge: Vec<Pair>,
     bvh: Bvh,
+    edge_bvh: Bvh,
+    vertex_bvh: Bvh,
     /// Scratch of the iterations.
     pushes: Vec<Push>,
     count: Vec<u32>,
     sum: Vec<Vec3>,
     touched: Vec<u32>,
+    active: Vec<u32>,
+    /// The end positions the lists were built at, and how far each particle has been from
+    /// them during the step, m.
+    built: Soa,
+    moved: Vec<Real>,
     /// How many times the candidate lists were built.
     pub rebuilds: u64,
     /// Contacts found at the first iteration of the last step.
@@ -255,19 +403,23 @@ impl MeshSelf {
             + (self.lo.capacity() + self.hi.capacity() + self.sum.capacity()) * size_of::<Vec3>()
             + (self.vertex_triangle.capacity() + self.edge_edge.capacity()) * size_of::<Pair>()
             + self.pushes.capacity() * size_of::<Push>()
-            + (self.count.capacity() + self.touched.capacity()) * 4
+            + (self.count.capacity() + self.touched.capacity() + self.active.capacity()) * 4
             + self.bvh.heap_bytes()
+            + self.edge_bvh.heap_bytes()
+            + self.vertex_bvh.heap_bytes()
+            + self.built.heap_bytes()
+            + self.moved.capacity() * size_of::<Real>()
     }
 
-    /// Whether every particle's start and end positions are in its box.
-    fn lists_hold(&self, x: &Soa) -> bool {
+    /// Whether every particle's start and end positions, less `shift` (m), are in its box.
+    fn lists_hold(&self, x: &Soa, shift: Vec3) -> bool {
         let n = x.len();
         if !self.lists_valid || self.lo.len() != n {
             return false;
         }
         let inside = |k: usize| {
             let (lo, hi) = (self.lo[k], self.hi[k]);
-            let (a, b) = (self.start.get(k), x.get(k));
+            let (a, b) = (self.start.get(k) - shift, x.get(k) - shift);
             lo.cmple(a).all() && a.cmple(hi).all() && lo.cmple(b).all() && b.cmple(hi).all()
         };
         if crate::exec::use_pool(n) {
@@ -281,6 +433,7 @@ impl MeshSelf {
     fn rebuild(&mut self, mesh: &ClothMesh, x: &Soa, exempt: &ExemptPairs) {
         self.rebuilds += 1;
         self.lists_valid = true;
+        self.built.clone_from(x);
         let n = x.len();
         let h = self.thickness;
         let half_skin = 0.5 * SKIN * h;
@@ -291,8 +444,14 @@ impl MeshSelf {
             self.lo.push(a.min(b) - Vec3::splat(half_skin));
             self.hi.push(a.max(b) + Vec3::splat(half_skin));
         }
-        // How far each particle may be from its end position while the lists hold.
-        let reach: Vec<Real> = (0..n).map(|k| (self.hi[k] - self.lo[k]).length()).collect();
+        // How far each particle may be from its end position while the lists hold: to the
+        // farthest corner of its box.
+        let reach: Vec<Real> = (0..n)
+            .map(|k| {
+                let p = x.get(k);
+                (p - self.lo[k]).max(self.hi[k] - p).length()
+            })
+            .collect();
         let (lo, hi) = (&self.lo, &self.hi);
         let triangles = &mesh.triangles;
         let (tlo, thi): (Vec<Vec3>, Vec<Vec3>) = triangles
@@ -302,86 +461,89 @@ impl MeshSelf {
                 (lo[a].min(lo[b]).min(lo[c]), hi[a].max(hi[b]).max(hi[c]))
             })
             .unzip();
-        self.bvh.build(&tlo, &thi);
-        let bvh = &self.bvh;
-        let grow = Vec3::splat(h);
+        self.bvh.build(tlo, thi);
+        self.vertex_bvh.build(lo.clone(), hi.clone());
+        let h_grow = h;
         let triangle_reach = |t: usize| {
             let [a, b, c] = triangles[t].map(|i| reach[i as usize]);
             a.max(b).max(c)
         };
         // Vertex-triangle: every triangle whose box comes within h of the vertex's, not one of
         // the vertex's own, not holding an exempt partner, that can come within h of it.
-        let per_vertex = map_collect(n, |v| {
-            let mut out = Vec::new();
-            let p = x.get(v);
-            bvh.query(lo[v] - grow, hi[v] + grow, |t| {
+        self.vertex_triangle = self.vertex_bvh.collect(
+            &self.bvh,
+            h_grow,
+            false,
+            |v, t| {
                 let tri = &triangles[t as usize];
+                let v = v as usize;
                 if tri.contains(&(v as u32)) || exempt.any(v, tri) {
-                    return;
+                    return None;
                 }
+                let p = x.get(v);
                 let [a, b, c] = tri.map(|i| x.get(i as usize));
                 let w = closest_on_triangle(p, a, b, c);
                 let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
-                if d <= h + reach[v] + triangle_reach(t as usize) {
-                    let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
-                    let rp = mesh.rest[v];
-                    let wr = closest_on_triangle(rp, ra, rb, rc);
-                    let rest = (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length();
-                    out.push(Pair {
-                        a: v as u32,
-                        b: t,
-                        target: h.min(rest),
-                    });
+                if d > h + reach[v] + triangle_reach(t as usize) {
+                    return None;
                 }
-            });
-            out.sort_unstable_by_key(|p| p.b);
-            out
-        });
-        self.vertex_triangle.clear();
-        self.vertex_triangle.extend(per_vertex.into_iter().flatten());
-        // Edge-edge: the edges of every triangle whose box comes within h of the edge's, of
-        // higher index (each pair once), sharing no vertex, not exempt.
+                let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
+                let rp = mesh.rest[v];
+                let wr = closest_on_triangle(rp, ra, rb, rc);
+                let rest = (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length();
+                Some(Pair {
+                    a: v as u32,
+                    b: t,
+                    target: h.min(rest),
+                    apart: d,
+                })
+            },
+            |p| (p.a, p.b),
+        );
+        // Edge-edge: every two edges whose boxes come within h, sharing no vertex, not exempt,
+        // that can come within h of each other; each pair once, the lower edge first.
         let edges = &mesh.edges;
-        let triangle_edges = &self.triangle_edges;
-        let per_edge = map_collect(edges.len(), |e| {
-            let mut out: Vec<Pair> = Vec::new();
-            let [a, b] = edges[e].map(|i| i as usize);
-            let (elo, ehi) = (lo[a].min(lo[b]) - grow, hi[a].max(hi[b]) + grow);
-            let (pa, pb) = (x.get(a), x.get(b));
-            let ra = reach[a].max(reach[b]);
-            bvh.query(elo, ehi, |t| {
-                for &f in &triangle_edges[t as usize] {
-                    if f as usize <= e || out.iter().any(|p| p.b == f) {
-                        continue;
-                    }
-                    let [c, d] = edges[f as usize].map(|i| i as usize);
-                    if c == a || c == b || d == a || d == b {
-                        continue;
-                    }
-                    if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32])
-                    {
-                        continue;
-                    }
-                    let (pc, pd) = (x.get(c), x.get(d));
-                    let (s, u) = closest_on_segments(pa, pb, pc, pd);
-                    let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
-                    if gap <= h + ra + reach[c].max(reach[d]) {
-                        let r = [a, b, c, d].map(|i| mesh.rest[i]);
-                        let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
-                        let rest = (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length();
-                        out.push(Pair {
-                            a: e as u32,
-                            b: f,
-                            target: h.min(rest),
-                        });
-                    }
+        let (elo, ehi): (Vec<Vec3>, Vec<Vec3>) = edges
+            .iter()
+            .map(|&[a, b]| {
+                let (a, b) = (a as usize, b as usize);
+                (lo[a].min(lo[b]), hi[a].max(hi[b]))
+            })
+            .unzip();
+        self.edge_bvh.build(elo, ehi);
+        let edge_bvh = &self.edge_bvh;
+        self.edge_edge = edge_bvh.collect(
+            edge_bvh,
+            h_grow,
+            true,
+            |e, f| {
+                let (e, f) = (e.min(f), e.max(f));
+                let [a, b] = edges[e as usize].map(|i| i as usize);
+                let [c, d] = edges[f as usize].map(|i| i as usize);
+                if c == a || c == b || d == a || d == b {
+                    return None;
                 }
-            });
-            out.sort_unstable_by_key(|p| p.b);
-            out
-        });
-        self.edge_edge.clear();
-        self.edge_edge.extend(per_edge.into_iter().flatten());
+                if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32]) {
+                    return None;
+                }
+                let [pa, pb, pc, pd] = [a, b, c, d].map(|k| x.get(k));
+                let (s, u) = closest_on_segments(pa, pb, pc, pd);
+                let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
+                if gap > h + reach[a].max(reach[b]) + reach[c].max(reach[d]) {
+                    return None;
+                }
+                let r = [a, b, c, d].map(|i| mesh.rest[i]);
+                let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
+                let rest = (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length();
+                Some(Pair {
+                    a: e,
+                    b: f,
+                    target: h.min(rest),
+                    apart: gap,
+                })
+            },
+            |p| (p.a, p.b),
+        );
     }
 
     /// Resolves the proximities of the mesh cloth `mesh` at positions `x` (m), the side of each
@@ -404,8 +566,23 @@ impl MeshSelf {
         if self.start.len() != n {
             self.start.clone_from(x);
         }
-        if !self.lists_hold(x) {
+        // Distances do not change when the whole cloth moves: the lists hold while the
+        // particles stay in their boxes once a common move since they were built is taken
+        // away (a falling cloth keeps its lists).
+        let mut shift = Vec3::ZERO;
+        if self.lists_valid && self.built.len() == n {
+            // The middle of the range of the moves, along each axis.
+            let (mut lo, mut hi) = (Vec3::splat(Real::INFINITY), Vec3::splat(-Real::INFINITY));
+            for k in 0..n {
+                let d = x.get(k) - self.built.get(k);
+                lo = lo.min(d);
+                hi = hi.max(d);
+            }
+            shift = 0.5 * (lo + hi);
+        }
+        if !self.lists_hold(x, shift) {
             self.rebuild(mesh, x, exempt);
+            shift = Vec3::ZERO;
         }
         if self.vertex_triangle.is_empty() && self.edge_edge.is_empty() {
             return 0;
@@ -418,33 +595,85 @@ impl MeshSelf {
             let k = k as usize;
             if held[k] { 0.0 } else { inv_mass[k] }
         };
+        let total = self.vertex_triangle.len() + self.edge_edge.len();
+        // How far each particle has been from where the lists were built (the common move
+        // taken away), during the step: a pair that was farther apart then than its
+        // distance plus both sides' moves cannot have come closer than its distance, nor
+        // crossed (the moves are straight lines).
+        {
+            let (x0, built) = (&self.start, &self.built);
+            let xr = &*x;
+            self.moved.clear();
+            self.moved.extend((0..n).map(|k| {
+                let b = built.get(k) + shift;
+                (x0.get(k) - b).length().max((xr.get(k) - b).length())
+            }));
+        }
+        // The candidates to test: all of them first, then those with a particle the last
+        // iteration moved (the others are as they were: apart).
+        self.active.clear();
         for iteration in 0..MAX_ITERATIONS {
             let (x0, x1) = (&self.start, &*x);
             let (vt, ee) = (&self.vertex_triangle, &self.edge_edge);
             let (triangles, edges) = (&mesh.triangles, &mesh.edges);
-            let contact = |i: usize| -> Option<Push> {
+            let particles = |i: usize| -> [u32; 4] {
                 if i < vt.len() {
                     let p = vt[i];
                     let [a, b, c] = triangles[p.b as usize];
-                    vertex_triangle(x0, x1, [p.a, a, b, c], p.target, im)
+                    [p.a, a, b, c]
                 } else {
                     let p = ee[i - vt.len()];
                     let [a, b] = edges[p.a as usize];
                     let [c, d] = edges[p.b as usize];
-                    edge_edge(x0, x1, [a, b, c, d], p.target, im)
+                    [a, b, c, d]
                 }
             };
-            let total = vt.len() + ee.len();
+            let moved = &self.moved;
+            // Every pair closer than its distance is pushed to it at the first iteration (a
+            // cloth resting on itself is held where it lies); later iterations stop at a
+            // shortfall of `SLACK`.
+            let share = if iteration == 0 { 1.0 } else { 1.0 - SLACK };
+            let contact = |i: usize| -> Option<Push> {
+                let q = particles(i);
+                let m = |k: u32| moved[k as usize];
+                if i < vt.len() {
+                    let p = &vt[i];
+                    if iteration == 0
+                        && p.apart - m(q[0]) - m(q[1]).max(m(q[2])).max(m(q[3])) >= p.target
+                    {
+                        return None;
+                    }
+                    vertex_triangle(x0, x1, q, p.target, p.target * share, im)
+                } else {
+                    let p = &ee[i - vt.len()];
+                    if iteration == 0
+                        && p.apart - m(q[0]).max(m(q[1])) - m(q[2]).max(m(q[3])) >= p.target
+                    {
+                        return None;
+                    }
+                    edge_edge(x0, x1, q, p.target, p.target * share, im)
+                }
+            };
             self.pushes.clear();
-            if crate::exec::use_pool(total) {
+            let active = &self.active;
+            let tested = if iteration == 0 { total } else { active.len() };
+            let candidate = |j: usize| {
+                if iteration == 0 {
+                    j
+                } else {
+                    active[j] as usize
+                }
+            };
+            if crate::exec::use_pool(tested) {
                 self.pushes.par_extend(
-                    (0..total)
+                    (0..tested)
                         .into_par_iter()
                         .with_min_len(512)
-                        .filter_map(contact),
+                        .filter_map(|j| contact(candidate(j))),
                 );
             } else {
-                self.pushes.extend((0..total).filter_map(contact));
+                self.pushes
+                    .extend((0..tested).filter_map(|j| contact(candidate(j))));
             }
             if self.pushes.is_empty() {
                 break;
@@ -472,7 +701,7 @@ impl MeshSelf {
                     .map(|(&k, _)| self.count[k as usize])
                     .max()
                     .unwrap_or(1);
-                let scale = 1.0 / busiest as Real;
+                let scale = (OMEGA / busiest as Real).min(1.0);
                 for (&k, &m) in push.particles.iter().zip(&push.amount) {
                     if m != 0.0 {
                         self.sum[k as usize] += push.direction * (m * scale);
@@ -483,7 +712,17 @@ impl MeshSelf {
                 let k = k as usize;
                 x.set(k, x.get(k) + self.sum[k]);
                 self.sum[k] = Vec3::ZERO;
-                self.count[k] = 0;
+            }
+            // The next iteration's candidates: those with a particle moved (`count` > 0).
+            let count = &self.count;
+            self.active.clear();
+            self.active.extend(
+                (0..total)
+                    .filter(|&i| particles(i).iter().any(|&k| count[k as usize] > 0))
+                    .map(|i| i as u32),
+            );
+            for &k in &self.touched {
+                self.count[k as usize] = 0;
             }
             self.touched.clear();
         }
@@ -513,14 +752,15 @@ fn sign(v: Real) -> Real {
 }
 
 /// The contact of vertex `q[0]` and triangle `q[1..4]` kept `target` (m) apart, from start
-/// positions `x0` and end positions `x1`; `im` gives inverse masses. `None` when they are far
-/// enough apart on the right side.
+/// positions `x0` and end positions `x1`; `im` gives inverse masses. `None` when they are on
+/// the right side, at least `reach` (m, at most `target`) apart.
 #[inline]
 fn vertex_triangle(
     x0: &Soa,
     x1: &Soa,
     q: [u32; 4],
     target: Real,
+    reach: Real,
     im: impl Fn(u32) -> Real,
 ) -> Option<Push> {
     let [p1, a1, b1, c1] = q.map(|k| x1.get(k as usize));
@@ -532,14 +772,20 @@ fn vertex_triangle(
     let [p0, a0, b0, c0] = q.map(|k| x0.get(k as usize));
     let f0 = (p0 - a0).dot((b0 - a0).cross(c0 - a0));
     let flipped = (f0 > 0.0 && f1 < 0.0) || (f0 < 0.0 && f1 > 0.0);
-    if d >= target * (1.0 - SLACK) && !flipped {
+    if d >= reach && !flipped {
         return None;
     }
     let crossed = flipped
-        && coplanar_time([p0 - a0, p1 - a1], [b0 - a0, b1 - a1], [c0 - a0, c1 - a1], |t| {
-            let [p, a, b, c] = [(p0, p1), (a0, a1), (b0, b1), (c0, c1)].map(|(u, v)| lerp(u, v, t));
-            inside_triangle(p, a, b, c)
-        });
+        && coplanar_time(
+            [p0 - a0, p1 - a1],
+            [b0 - a0, b1 - a1],
+            [c0 - a0, c1 - a1],
+            |t| {
+                let [p, a, b, c] =
+                    [(p0, p1), (a0, a1), (b0, b1), (c0, c1)].map(|(u, v)| lerp(u, v, t));
+                inside_triangle(p, a, b, c)
+            },
+        );
     let length = normal1.length();
     let (direction, shortfall) = if crossed {
         if length == 0.0 {
@@ -549,7 +795,7 @@ fn vertex_triangle(
         let n = normal1 * (sign(f0) / length);
         (n, target - (p1 - a1).dot(n))
     } else {
-        if d >= target * (1.0 - SLACK) {
+        if d >= reach {
             return None;
         }
         let n = if d > 1e-12 * target {
@@ -575,6 +821,7 @@ fn edge_edge(
     x1: &Soa,
     q: [u32; 4],
     target: Real,
+    reach: Real,
     im: impl Fn(u32) -> Real,
 ) -> Option<Push> {
     let [a1, b1, c1, d1] = q.map(|k| x1.get(k as usize));
@@ -587,16 +834,22 @@ fn edge_edge(
     let m0 = (b0 - a0).cross(d0 - c0);
     let f0 = (c0 - a0).dot(m0);
     let flipped = (f0 > 0.0 && f1 < 0.0) || (f0 < 0.0 && f1 > 0.0);
-    if d >= target * (1.0 - SLACK) && !flipped {
+    if d >= reach && !flipped {
         return None;
     }
     let crossed = flipped
-        && coplanar_time([c0 - a0, c1 - a1], [b0 - a0, b1 - a1], [d0 - c0, d1 - c1], |t| {
-            let [a, b, c, d] = [(a0, a1), (b0, b1), (c0, c1), (d0, d1)].map(|(v, w)| lerp(v, w, t));
-            let (s, u) = closest_on_segments(a, b, c, d);
-            let gap = (a.lerp(b, s) - c.lerp(d, u)).length();
-            gap <= 1e-6 * ((b - a).length() + (d - c).length())
-        });
+        && coplanar_time(
+            [c0 - a0, c1 - a1],
+            [b0 - a0, b1 - a1],
+            [d0 - c0, d1 - c1],
+            |t| {
+                let [a, b, c, d] =
+                    [(a0, a1), (b0, b1), (c0, c1), (d0, d1)].map(|(v, w)| lerp(v, w, t));
+                let (s, u) = closest_on_segments(a, b, c, d);
+                let gap = (a.lerp(b, s) - c.lerp(d, u)).length();
+                gap <= 1e-6 * ((b - a).length() + (d - c).length())
+            },
+        );
     // The first edge's side of the second: `(a - c) . m`, that is `-f`.
     let length = m1.length();
     let (direction, shortfall) = if crossed {
@@ -612,7 +865,7 @@ fn edge_edge(
         };
         (n, target - (p - r).dot(n))
     } else {
-        if d >= target * (1.0 - SLACK) {
+        if d >= reach {
             return None;
         }
         let n = if d > 1e-12 * target {
@@ -641,12 +894,12 @@ fn push(
     shortfall: Real,
     im: impl Fn(u32) -> Real,
 ) -> Option<Push> {
-    if !(shortfall > 0.0) || !direction.is_finite() {
+    if shortfall.is_nan() || shortfall <= 0.0 || !direction.is_finite() {
         return None;
     }
     let inv = q.map(&im);
     let denominator: Real = (0..4).map(|i| weight[i] * weight[i] * inv[i]).sum();
-    if !(denominator > 0.0) {
+    if denominator.is_nan() || denominator <= 0.0 {
         return None;
     }
     let lambda = shortfall / denominator;
@@ -790,7 +1043,7 @@ pub(crate) fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> [Real; 
         return [0.0, 1.0 - w, w];
     }
     let total = va + vb + vc;
-    if !(total > 0.0) {
+    if total.is_nan() || total <= 0.0 {
         // A crushed triangle: the nearest of its sides.
         let sides = [(a, b, [0, 1]), (b, c, [1, 2]), (c, a, [2, 0])];
         let mut best = (Real::INFINITY, [1.0, 0.0, 0.0]);
@@ -957,7 +1210,13 @@ mod tests {
             x.set(k, start.get(k) - Vec3::new(0.0, 0.006, 0.0));
         }
         contact.begin_step(&start);
-        contact.solve(&mesh, &mut x, &[1.0; 6], &[false; 6], &ExemptPairs::default());
+        contact.solve(
+            &mesh,
+            &mut x,
+            &[1.0; 6],
+            &[false; 6],
+            &ExemptPairs::default(),
+        );
         // The upper edge (3, 4) along z against the lower one (0, 1) along x: above it, `h`
         // off.
         let [a, b, c, d] = [0, 1, 3, 4].map(|k| x.get(k));
@@ -965,6 +1224,114 @@ mod tests {
         let apart = c.lerp(d, u) - a.lerp(b, s);
         assert!(apart.y > 0.0, "{apart}");
         assert!(apart.length() >= 0.002 * (1.0 - 2.0 * SLACK), "{apart}");
+    }
+
+    /// The hierarchy finds every candidate pair a test of all pairs finds.
+    #[test]
+    fn the_broad_phase_misses_no_pair() {
+        // A crumpled 9 x 9 sheet of 1 cm edges, its particles moved up to 8 mm, 3 mm thick.
+        let n = 9;
+        let mut rest = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                rest.push(Vec3::new(i as Real * 0.01, 0.0, j as Real * 0.01));
+            }
+        }
+        let mut triangles = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let a = (j * n + i) as u32;
+                let (b, c, d) = (a + 1, a + 1 + n as u32, a + n as u32);
+                triangles.push([a, c, b]);
+                triangles.push([a, d, c]);
+            }
+        }
+        let mesh = ClothMesh::new(rest, triangles).unwrap();
+        let mut seed: u64 = 0x2545_F491_4F6C_DD1D;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as Real / (1u64 << 53) as Real * 2.0 - 1.0
+        };
+        let mut crumple = |scale: Real| {
+            Soa::from_vec3(
+                &mesh
+                    .rest
+                    .iter()
+                    .map(|p| {
+                        let y = 0.03 * (p.x * 300.0).sin() * (p.z * 200.0).cos();
+                        *p + Vec3::new(rnd(), rnd() + y / scale, rnd()) * scale
+                    })
+                    .collect::<Vec<_>>(),
+            )
+        };
+        let (start, end) = (crumple(0.008), crumple(0.008));
+        let h = 0.003;
+        let mut contact = MeshSelf::new(&mesh, h);
+        contact.begin_step(&start);
+        contact.rebuild(&mesh, &end, &ExemptPairs::default());
+        let meet = |a: (Vec3, Vec3), b: (Vec3, Vec3)| {
+            !((a.0 - Vec3::splat(h)).cmpgt(b.1).any() || b.0.cmpgt(a.1 + Vec3::splat(h)).any())
+        };
+        let (lo, hi) = (&contact.lo, &contact.hi);
+        let reach = |k: u32| {
+            let (k, p) = (k as usize, end.get(k as usize));
+            (p - lo[k]).max(hi[k] - p).length()
+        };
+        let span = |ks: &[u32]| {
+            let l = ks
+                .iter()
+                .map(|&k| lo[k as usize])
+                .reduce(Vec3::min)
+                .unwrap();
+            let u = ks
+                .iter()
+                .map(|&k| hi[k as usize])
+                .reduce(Vec3::max)
+                .unwrap();
+            (l, u)
+        };
+        let mut vt = Vec::new();
+        for v in 0..mesh.len() as u32 {
+            for (t, tri) in mesh.triangles.iter().enumerate() {
+                if tri.contains(&v) || !meet(span(&[v]), span(tri)) {
+                    continue;
+                }
+                let [a, b, c] = tri.map(|k| end.get(k as usize));
+                let p = end.get(v as usize);
+                let w = closest_on_triangle(p, a, b, c);
+                let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
+                let r = tri.map(reach);
+                if d <= h + reach(v) + r[0].max(r[1]).max(r[2]) {
+                    vt.push((v, t as u32));
+                }
+            }
+        }
+        let mut ee = Vec::new();
+        for (e, &[a, b]) in mesh.edges.iter().enumerate() {
+            for (f, &[c, d]) in mesh.edges.iter().enumerate().skip(e + 1) {
+                if [a, b].iter().any(|k| *k == c || *k == d) || !meet(span(&[a, b]), span(&[c, d]))
+                {
+                    continue;
+                }
+                let [pa, pb, pc, pd] = [a, b, c, d].map(|k| end.get(k as usize));
+                let (s, u) = closest_on_segments(pa, pb, pc, pd);
+                let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
+                if gap <= h + reach(a).max(reach(b)) + reach(c).max(reach(d)) {
+                    ee.push((e as u32, f as u32));
+                }
+            }
+        }
+        let found = |l: &[Pair]| l.iter().map(|p| (p.a, p.b)).collect::<Vec<_>>();
+        assert!(
+            vt.len() > 100 && ee.len() > 100,
+            "{} {}",
+            vt.len(),
+            ee.len()
+        );
+        assert_eq!(found(&contact.vertex_triangle), vt);
+        assert_eq!(found(&contact.edge_edge), ee);
     }
 
     #[test]
