@@ -71,7 +71,7 @@ const SLACK: Real = 0.01;
 /// contacts any of its particles takes part in, at most 1 (a lone contact is not overshot).
 const OMEGA: Real = 1.5;
 
-/// Most triangles in a leaf of the hierarchy.
+/// Most boxes in a leaf of a hierarchy.
 const LEAF: usize = 4;
 
 /// A candidate pair: a vertex and a triangle, or two edges (indices into the mesh's edges),
@@ -93,8 +93,8 @@ struct Push {
     direction: Vec3,
 }
 
-/// A node of the hierarchy: a box, and either a run of triangles (`count > 0`) or two children
-/// (the left one right after it, the right one at `right`).
+/// A node of the hierarchy: a box, and either a run of boxes (`count > 0`) or two children (the
+/// left one right after it, the right one at `right`).
 #[derive(Clone, Copy, Debug, Default)]
 struct Node {
     lo: Vec3,
@@ -282,6 +282,7 @@ impl Bvh {
                         next.extend([(a + 1, a + 1), (p.right, p.right), (a + 1, p.right)]);
                     }
                 } else if !self.nodes_meet(a, other, b, grow) {
+                    // Nothing under these two meets.
                 } else if p.count == 0 {
                     next.extend([(a + 1, b), (p.right, b)]);
                 } else if q.count == 0 {
@@ -323,8 +324,6 @@ impl Bvh {
 pub struct MeshSelf {
     /// The thickness `h`, m: the distance pairs are kept at.
     thickness: Real,
-    /// Each triangle's edges (indices into the mesh's edges).
-    triangle_edges: Vec<[u32; 3]>,
     /// Positions at the start of the step being taken, m.
     start: Soa,
     /// Whether the candidate lists are of the current exempt pairs.
@@ -355,22 +354,10 @@ pub struct MeshSelf {
 }
 
 impl MeshSelf {
-    /// Self-contact of `mesh`, `thickness` (m) thick.
-    pub fn new(mesh: &ClothMesh, thickness: Real) -> Self {
-        let edge_of = |a: u32, b: u32| {
-            let key = [a.min(b), a.max(b)];
-            mesh.edges
-                .binary_search(&key)
-                .expect("every side of a triangle is an edge") as u32
-        };
-        let triangle_edges = mesh
-            .triangles
-            .iter()
-            .map(|&[a, b, c]| [edge_of(a, b), edge_of(b, c), edge_of(c, a)])
-            .collect();
+    /// Self-contact of a mesh cloth `thickness` (m) thick.
+    pub fn new(thickness: Real) -> Self {
         Self {
             thickness,
-            triangle_edges,
             ..Default::default()
         }
     }
@@ -399,7 +386,6 @@ impl MeshSelf {
     pub fn heap_bytes(&self) -> usize {
         use std::mem::size_of;
         self.start.heap_bytes()
-            + self.triangle_edges.capacity() * 12
             + (self.lo.capacity() + self.hi.capacity() + self.sum.capacity()) * size_of::<Vec3>()
             + (self.vertex_triangle.capacity() + self.edge_edge.capacity()) * size_of::<Pair>()
             + self.pushes.capacity() * size_of::<Push>()
@@ -463,7 +449,6 @@ impl MeshSelf {
             .unzip();
         self.bvh.build(tlo, thi);
         self.vertex_bvh.build(lo.clone(), hi.clone());
-        let h_grow = h;
         let triangle_reach = |t: usize| {
             let [a, b, c] = triangles[t].map(|i| reach[i as usize]);
             a.max(b).max(c)
@@ -472,7 +457,7 @@ impl MeshSelf {
         // the vertex's own, not holding an exempt partner, that can come within h of it.
         self.vertex_triangle = self.vertex_bvh.collect(
             &self.bvh,
-            h_grow,
+            h,
             false,
             |v, t| {
                 let tri = &triangles[t as usize];
@@ -514,7 +499,7 @@ impl MeshSelf {
         let edge_bvh = &self.edge_bvh;
         self.edge_edge = edge_bvh.collect(
             edge_bvh,
-            h_grow,
+            h,
             true,
             |e, f| {
                 let (e, f) = (e.min(f), e.max(f));
@@ -1111,7 +1096,7 @@ mod tests {
             Vec3::new(0.1, 0.0, 0.02),
         ];
         let mesh = ClothMesh::new(rest, vec![[0, 2, 1], [3, 5, 4]]).unwrap();
-        let contact = MeshSelf::new(&mesh, 0.002);
+        let contact = MeshSelf::new(0.002);
         (mesh, contact)
     }
 
@@ -1200,7 +1185,7 @@ mod tests {
             Vec3::new(0.02, 0.1, 0.0),
         ];
         let mesh = ClothMesh::new(rest, vec![[0, 1, 2], [3, 4, 5]]).unwrap();
-        let mut contact = MeshSelf::new(&mesh, 0.002);
+        let mut contact = MeshSelf::new(0.002);
         let mut start = mesh.rest_positions();
         for k in 3..6 {
             start.set(k, mesh.rest[k] - Vec3::new(0.0, 0.097, 0.0));
@@ -1268,7 +1253,7 @@ mod tests {
         };
         let (start, end) = (crumple(0.008), crumple(0.008));
         let h = 0.003;
-        let mut contact = MeshSelf::new(&mesh, h);
+        let mut contact = MeshSelf::new(h);
         contact.begin_step(&start);
         contact.rebuild(&mesh, &end, &ExemptPairs::default());
         let meet = |a: (Vec3, Vec3), b: (Vec3, Vec3)| {
