@@ -153,8 +153,10 @@ impl Simulation {
                 .cloth
                 .self_collision
                 .then(|| SelfCollision::new(n, 2.0 * model.radius)),
-            mesh_self: (model.mesh.is_some() && config.cloth.self_collision)
-                .then(|| MeshSelf::new(2.0 * model.radius)),
+            mesh_self: match (&model.mesh, config.cloth.self_collision) {
+                (Some(mesh), true) => Some(MeshSelf::new(mesh, 2.0 * model.radius)),
+                _ => None,
+            },
             exempt: ExemptPairs::default(),
             measures: Measures::for_layout(model.layout(), AirModel::keeps_cells(&config.air)),
             strain: strain_limit::Scratch::default(),

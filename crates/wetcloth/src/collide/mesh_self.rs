@@ -30,12 +30,13 @@
 //! all, test only the pairs the last one moved, until none is short of its distance by more
 //! than a hundredth of it.
 //!
-//! **Rest neighbours.** A pair closer at rest than `h` (a mesh finer than its thickness) is kept
-//! at its rest distance instead, as the sphere self-collision keeps its rest neighbours; pairs
-//! that share a vertex, and the pairs of [`ExemptPairs`] (seams), are never tested.
+//! **Rest neighbours.** A pair closer at rest than `h` (a mesh finer than its thickness, a
+//! sliver of a triangle) is not tested: the cloth's own tessellation does not push itself apart.
+//! Its particles are left to the sphere self-collision, which keeps them at their rest distance.
+//! Pairs that share a vertex, and the pairs of [`ExemptPairs`] (seams), are never tested.
 //!
 //! **Broad phase.** Each particle's box is the sweep of its move over the step, widened by a
-//! skin of `2 h`; a triangle's or an edge's box holds its corners'. Bounding volume hierarchies
+//! skin of `2 h` (or half the mean edge, if less); a triangle's or an edge's box holds its corners'. Bounding volume hierarchies
 //! over the particles', triangles' and edges' boxes (median splits, ties by index), traversed
 //! two at a time (particles against triangles, edges against themselves) in independent
 //! subtrees over the thread pool, give every pair whose boxes come within `h` of each other
@@ -61,8 +62,12 @@ use rayon::prelude::*;
 /// Most Jacobi iterations of the corrections per step.
 pub const MAX_ITERATIONS: usize = 24;
 
-/// The skin of the candidate lists, as a multiple of the thickness `h`.
+/// The skin of the candidate lists, as a multiple of the thickness `h`...
 const SKIN: Real = 2.0;
+
+/// ... or of the mean edge at rest, if less (a mesh about as fine as it is thick would list
+/// every particle with hundreds of triangles).
+const SKIN_PER_EDGE: Real = 0.5;
 
 /// A pair whose shortfall from its distance is below this share of it is resolved.
 const SLACK: Real = 0.01;
@@ -74,13 +79,11 @@ const OMEGA: Real = 1.5;
 /// Most boxes in a leaf of a hierarchy.
 const LEAF: usize = 4;
 
-/// A candidate pair: a vertex and a triangle, or two edges (indices into the mesh's edges),
-/// and the distance they are kept at (m).
+/// A candidate pair: a vertex and a triangle, or two edges (indices into the mesh's edges).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Pair {
     a: u32,
     b: u32,
-    target: Real,
     /// Their distance when the lists were built, m.
     apart: Real,
 }
@@ -91,6 +94,8 @@ struct Push {
     particles: [u32; 4],
     amount: [Real; 4],
     direction: Vec3,
+    /// How far the pair is short of its distance, m.
+    shortfall: Real,
 }
 
 /// A node of the hierarchy: a box, and either a run of boxes (`count > 0`) or two children (the
@@ -324,6 +329,8 @@ impl Bvh {
 pub struct MeshSelf {
     /// The thickness `h`, m: the distance pairs are kept at.
     thickness: Real,
+    /// How far the particles' boxes reach beyond their moves, m.
+    skin: Real,
     /// Positions at the start of the step being taken, m.
     start: Soa,
     /// Whether the candidate lists are of the current exempt pairs.
@@ -354,10 +361,17 @@ pub struct MeshSelf {
 }
 
 impl MeshSelf {
-    /// Self-contact of a mesh cloth `thickness` (m) thick.
-    pub fn new(thickness: Real) -> Self {
+    /// Self-contact of `mesh`, `thickness` (m) thick.
+    pub fn new(mesh: &ClothMesh, thickness: Real) -> Self {
+        let edge = mesh
+            .edges
+            .iter()
+            .map(|&[a, b]| (mesh.rest[b as usize] - mesh.rest[a as usize]).length())
+            .sum::<Real>()
+            / mesh.edges.len().max(1) as Real;
         Self {
             thickness,
+            skin: (SKIN * thickness).min(SKIN_PER_EDGE * edge),
             ..Default::default()
         }
     }
@@ -422,7 +436,7 @@ impl MeshSelf {
         self.built.clone_from(x);
         let n = x.len();
         let h = self.thickness;
-        let half_skin = 0.5 * SKIN * h;
+        let half_skin = 0.5 * self.skin;
         self.lo.clear();
         self.hi.clear();
         for k in 0..n {
@@ -475,11 +489,12 @@ impl MeshSelf {
                 let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
                 let rp = mesh.rest[v];
                 let wr = closest_on_triangle(rp, ra, rb, rc);
-                let rest = (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length();
+                if (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length() < h {
+                    return None;
+                }
                 Some(Pair {
                     a: v as u32,
                     b: t,
-                    target: h.min(rest),
                     apart: d,
                 })
             },
@@ -519,11 +534,12 @@ impl MeshSelf {
                 }
                 let r = [a, b, c, d].map(|i| mesh.rest[i]);
                 let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
-                let rest = (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length();
+                if (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length() < h {
+                    return None;
+                }
                 Some(Pair {
                     a: e,
                     b: f,
-                    target: h.min(rest),
                     apart: gap,
                 })
             },
@@ -580,6 +596,7 @@ impl MeshSelf {
             let k = k as usize;
             if held[k] { 0.0 } else { inv_mass[k] }
         };
+        let h = self.thickness;
         let total = self.vertex_triangle.len() + self.edge_edge.len();
         // How far each particle has been from where the lists were built (the common move
         // taken away), during the step: a pair that was farther apart then than its
@@ -595,7 +612,8 @@ impl MeshSelf {
             }));
         }
         // The candidates to test: all of them first, then those with a particle the last
-        // iteration moved (the others are as they were: apart).
+        // iteration moved (the others are as they were: apart); each passed over while it
+        // cannot be within `h`.
         self.active.clear();
         for iteration in 0..MAX_ITERATIONS {
             let (x0, x1) = (&self.start, &*x);
@@ -614,29 +632,19 @@ impl MeshSelf {
                 }
             };
             let moved = &self.moved;
+            let near = |i: usize, q: [u32; 4]| may_touch(vt, ee, i, q, moved, h);
             // Every pair closer than its distance is pushed to it at the first iteration (a
             // cloth resting on itself is held where it lies); later iterations stop at a
             // shortfall of `SLACK`.
             let share = if iteration == 0 { 1.0 } else { 1.0 - SLACK };
             let contact = |i: usize| -> Option<Push> {
                 let q = particles(i);
-                let m = |k: u32| moved[k as usize];
-                if i < vt.len() {
-                    let p = &vt[i];
-                    if iteration == 0
-                        && p.apart - m(q[0]) - m(q[1]).max(m(q[2])).max(m(q[3])) >= p.target
-                    {
-                        return None;
-                    }
-                    vertex_triangle(x0, x1, q, p.target, p.target * share, im)
+                if !near(i, q) {
+                    None
+                } else if i < vt.len() {
+                    vertex_triangle(x0, x1, q, h, h * share, im)
                 } else {
-                    let p = &ee[i - vt.len()];
-                    if iteration == 0
-                        && p.apart - m(q[0]).max(m(q[1])) - m(q[2]).max(m(q[3])) >= p.target
-                    {
-                        return None;
-                    }
-                    edge_edge(x0, x1, q, p.target, p.target * share, im)
+                    edge_edge(x0, x1, q, h, h * share, im)
                 }
             };
             self.pushes.clear();
@@ -693,17 +701,39 @@ impl MeshSelf {
                     }
                 }
             }
+            let mut largest_move: Real = 0.0;
             for &k in &self.touched {
                 let k = k as usize;
-                x.set(k, x.get(k) + self.sum[k]);
+                let p = x.get(k) + self.sum[k];
+                largest_move = largest_move.max(self.sum[k].length());
+                x.set(k, p);
                 self.sum[k] = Vec3::ZERO;
+                let b = self.built.get(k) + shift;
+                self.moved[k] = (self.start.get(k) - b).length().max((p - b).length());
             }
-            // The next iteration's candidates: those with a particle moved (`count` > 0).
-            let count = &self.count;
+            // After the first iteration, every pair is short of `h` by at most the largest
+            // shortfall it found plus the two sides' largest moves (no pair that was apart can
+            // have come closer by more): when that is within the slack, the next iteration
+            // would find nothing.
+            let largest_shortfall = self.pushes.iter().map(|p| p.shortfall).fold(0.0, Real::max);
+            if iteration == 0 && largest_shortfall + 2.0 * largest_move < SLACK * h {
+                for &k in &self.touched {
+                    self.count[k as usize] = 0;
+                }
+                self.touched.clear();
+                break;
+            }
+            // The next iteration's candidates: those with a particle moved (`count` > 0) that
+            // may now be within `h`.
+            let (count, moved) = (&self.count, &self.moved);
             self.active.clear();
             self.active.extend(
                 (0..total)
-                    .filter(|&i| particles(i).iter().any(|&k| count[k as usize] > 0))
+                    .filter(|&i| {
+                        let q = particles(i);
+                        q.iter().any(|&k| count[k as usize] > 0)
+                            && may_touch(vt, ee, i, q, moved, h)
+                    })
                     .map(|i| i as u32),
             );
             for &k in &self.touched {
@@ -712,6 +742,19 @@ impl MeshSelf {
             self.touched.clear();
         }
         self.contacts
+    }
+}
+
+/// Whether candidate `i` (of the vertex-triangle pairs `vt`, then the edge-edge pairs `ee`), of
+/// particles `q`, may be within `h` (m): its distance at the lists' build less the farthest its
+/// particles on each side have been since (`moved`, m) is below `h`.
+#[inline]
+fn may_touch(vt: &[Pair], ee: &[Pair], i: usize, q: [u32; 4], moved: &[Real], h: Real) -> bool {
+    let m = |k: u32| moved[k as usize];
+    if i < vt.len() {
+        vt[i].apart - m(q[0]) - m(q[1]).max(m(q[2])).max(m(q[3])) < h
+    } else {
+        ee[i - vt.len()].apart - m(q[0]).max(m(q[1])) - m(q[2]).max(m(q[3])) < h
     }
 }
 
@@ -892,6 +935,7 @@ fn push(
         particles: q,
         amount: [0, 1, 2, 3].map(|i| weight[i] * inv[i] * lambda),
         direction,
+        shortfall,
     })
 }
 
@@ -1096,7 +1140,7 @@ mod tests {
             Vec3::new(0.1, 0.0, 0.02),
         ];
         let mesh = ClothMesh::new(rest, vec![[0, 2, 1], [3, 5, 4]]).unwrap();
-        let contact = MeshSelf::new(0.002);
+        let contact = MeshSelf::new(&mesh, 0.002);
         (mesh, contact)
     }
 
@@ -1185,7 +1229,7 @@ mod tests {
             Vec3::new(0.02, 0.1, 0.0),
         ];
         let mesh = ClothMesh::new(rest, vec![[0, 1, 2], [3, 4, 5]]).unwrap();
-        let mut contact = MeshSelf::new(0.002);
+        let mut contact = MeshSelf::new(&mesh, 0.002);
         let mut start = mesh.rest_positions();
         for k in 3..6 {
             start.set(k, mesh.rest[k] - Vec3::new(0.0, 0.097, 0.0));
@@ -1253,7 +1297,7 @@ mod tests {
         };
         let (start, end) = (crumple(0.008), crumple(0.008));
         let h = 0.003;
-        let mut contact = MeshSelf::new(h);
+        let mut contact = MeshSelf::new(&mesh, h);
         contact.begin_step(&start);
         contact.rebuild(&mesh, &end, &ExemptPairs::default());
         let meet = |a: (Vec3, Vec3), b: (Vec3, Vec3)| {
@@ -1288,7 +1332,11 @@ mod tests {
                 let w = closest_on_triangle(p, a, b, c);
                 let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
                 let r = tri.map(reach);
-                if d <= h + reach(v) + r[0].max(r[1]).max(r[2]) {
+                let [ra, rb, rc] = tri.map(|k| mesh.rest[k as usize]);
+                let rp = mesh.rest[v as usize];
+                let wr = closest_on_triangle(rp, ra, rb, rc);
+                let rest = (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length();
+                if d <= h + reach(v) + r[0].max(r[1]).max(r[2]) && rest >= h {
                     vt.push((v, t as u32));
                 }
             }
@@ -1303,7 +1351,10 @@ mod tests {
                 let [pa, pb, pc, pd] = [a, b, c, d].map(|k| end.get(k as usize));
                 let (s, u) = closest_on_segments(pa, pb, pc, pd);
                 let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
-                if gap <= h + reach(a).max(reach(b)) + reach(c).max(reach(d)) {
+                let r = [a, b, c, d].map(|k| mesh.rest[k as usize]);
+                let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
+                let rest = (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length();
+                if gap <= h + reach(a).max(reach(b)) + reach(c).max(reach(d)) && rest >= h {
                     ee.push((e as u32, f as u32));
                 }
             }
