@@ -126,50 +126,70 @@ impl Bvh {
         self.order.clear();
         self.order.extend(0..lo.len() as u32);
         if !lo.is_empty() {
-            self.split(&lo, &hi, 0, lo.len());
+            // Twice each box's centre, by axis.
+            let centres: Vec<[Real; 3]> = lo
+                .iter()
+                .zip(&hi)
+                .map(|(a, b)| (*a + *b).to_array())
+                .collect();
+            self.split(&lo, &hi, &centres, 0, lo.len());
         }
         (self.lo, self.hi) = (lo, hi);
     }
 
-    fn split(&mut self, lo: &[Vec3], hi: &[Vec3], first: usize, end: usize) -> u32 {
+    /// The node of boxes `order[first..end]`, its subtree after it; returns its index.
+    fn split(
+        &mut self,
+        lo: &[Vec3],
+        hi: &[Vec3],
+        centres: &[[Real; 3]],
+        first: usize,
+        end: usize,
+    ) -> u32 {
         let index = self.nodes.len();
-        let (mut blo, mut bhi) = (Vec3::splat(Real::INFINITY), Vec3::splat(-Real::INFINITY));
-        let (mut clo, mut chi) = (blo, bhi);
-        for &i in &self.order[first..end] {
-            let i = i as usize;
-            blo = blo.min(lo[i]);
-            bhi = bhi.max(hi[i]);
-            let c = lo[i] + hi[i];
-            clo = clo.min(c);
-            chi = chi.max(c);
-        }
         self.nodes.push(Node {
-            lo: blo,
-            hi: bhi,
             first: first as u32,
             count: (end - first) as u32,
-            right: 0,
+            ..Default::default()
         });
         if end - first <= LEAF {
+            let (mut blo, mut bhi) = (Vec3::splat(Real::INFINITY), Vec3::splat(-Real::INFINITY));
+            for &i in &self.order[first..end] {
+                blo = blo.min(lo[i as usize]);
+                bhi = bhi.max(hi[i as usize]);
+            }
+            (self.nodes[index].lo, self.nodes[index].hi) = (blo, bhi);
             return index as u32;
         }
-        let extent = chi - clo;
-        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        // Split at the median along the axis the centres spread most along.
+        let (mut clo, mut chi) = ([Real::INFINITY; 3], [-Real::INFINITY; 3]);
+        for &i in &self.order[first..end] {
+            let c = centres[i as usize];
+            for k in 0..3 {
+                clo[k] = clo[k].min(c[k]);
+                chi[k] = chi[k].max(c[k]);
+            }
+        }
+        let extent = [chi[0] - clo[0], chi[1] - clo[1], chi[2] - clo[2]];
+        let axis = if extent[0] >= extent[1] && extent[0] >= extent[2] {
             0
-        } else if extent.y >= extent.z {
+        } else if extent[1] >= extent[2] {
             1
         } else {
             2
         };
         let mid = (end - first) / 2;
-        let centre = |i: u32| (lo[i as usize] + hi[i as usize])[axis];
         self.order[first..end].select_nth_unstable_by(mid, |&i, &j| {
-            centre(i).total_cmp(&centre(j)).then(i.cmp(&j))
+            centres[i as usize][axis]
+                .total_cmp(&centres[j as usize][axis])
+                .then(i.cmp(&j))
         });
         self.nodes[index].count = 0;
-        self.split(lo, hi, first, first + mid);
-        let right = self.split(lo, hi, first + mid, end);
-        self.nodes[index].right = right;
+        let left = self.split(lo, hi, centres, first, first + mid);
+        let right = self.split(lo, hi, centres, first + mid, end);
+        let (l, r) = (self.nodes[left as usize], self.nodes[right as usize]);
+        let node = &mut self.nodes[index];
+        (node.lo, node.hi, node.right) = (l.lo.min(r.lo), l.hi.max(r.hi), right);
         index as u32
     }
 
@@ -298,8 +318,7 @@ impl Bvh {
             }
             tasks = next;
         }
-        let mut out: Vec<T> = map_collect(tasks.len(), |t| {
-            let (a, b) = tasks[t];
+        let task = |&(a, b): &(u32, u32)| {
             let mut found = Vec::new();
             self.pairs(a, other, b, grow, same, &mut |i, j| {
                 if let Some(item) = keep(i, j) {
@@ -307,10 +326,14 @@ impl Bvh {
                 }
             });
             found
-        })
-        .into_iter()
-        .flatten()
-        .collect();
+        };
+        // Shared out by the boxes' count (the tasks are few, each large).
+        let found: Vec<Vec<T>> = if crate::exec::use_pool(self.lo.len() + other.lo.len()) {
+            tasks.par_iter().map(task).collect()
+        } else {
+            tasks.iter().map(task).collect()
+        };
+        let mut out: Vec<T> = found.into_iter().flatten().collect();
         out.sort_unstable_by_key(order);
         out
     }
@@ -453,7 +476,7 @@ impl MeshSelf {
             })
             .collect();
         let (lo, hi) = (&self.lo, &self.hi);
-        let triangles = &mesh.triangles;
+        let (triangles, edges) = (&mesh.triangles, &mesh.edges);
         let (tlo, thi): (Vec<Vec3>, Vec<Vec3>) = triangles
             .iter()
             .map(|t| {
@@ -461,48 +484,6 @@ impl MeshSelf {
                 (lo[a].min(lo[b]).min(lo[c]), hi[a].max(hi[b]).max(hi[c]))
             })
             .unzip();
-        self.bvh.build(tlo, thi);
-        self.vertex_bvh.build(lo.clone(), hi.clone());
-        let triangle_reach = |t: usize| {
-            let [a, b, c] = triangles[t].map(|i| reach[i as usize]);
-            a.max(b).max(c)
-        };
-        // Vertex-triangle: every triangle whose box comes within h of the vertex's, not one of
-        // the vertex's own, not holding an exempt partner, that can come within h of it.
-        self.vertex_triangle = self.vertex_bvh.collect(
-            &self.bvh,
-            h,
-            false,
-            |v, t| {
-                let tri = &triangles[t as usize];
-                let v = v as usize;
-                if tri.contains(&(v as u32)) || exempt.any(v, tri) {
-                    return None;
-                }
-                let p = x.get(v);
-                let [a, b, c] = tri.map(|i| x.get(i as usize));
-                let w = closest_on_triangle(p, a, b, c);
-                let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
-                if d > h + reach[v] + triangle_reach(t as usize) {
-                    return None;
-                }
-                let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
-                let rp = mesh.rest[v];
-                let wr = closest_on_triangle(rp, ra, rb, rc);
-                if (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length() < h {
-                    return None;
-                }
-                Some(Pair {
-                    a: v as u32,
-                    b: t,
-                    apart: d,
-                })
-            },
-            |p| (p.a, p.b),
-        );
-        // Edge-edge: every two edges whose boxes come within h, sharing no vertex, not exempt,
-        // that can come within h of each other; each pair once, the lower edge first.
-        let edges = &mesh.edges;
         let (elo, ehi): (Vec<Vec3>, Vec<Vec3>) = edges
             .iter()
             .map(|&[a, b]| {
@@ -510,41 +491,101 @@ impl MeshSelf {
                 (lo[a].min(lo[b]), hi[a].max(hi[b]))
             })
             .unzip();
-        self.edge_bvh.build(elo, ehi);
-        let edge_bvh = &self.edge_bvh;
-        self.edge_edge = edge_bvh.collect(
-            edge_bvh,
-            h,
-            true,
-            |e, f| {
-                let (e, f) = (e.min(f), e.max(f));
-                let [a, b] = edges[e as usize].map(|i| i as usize);
-                let [c, d] = edges[f as usize].map(|i| i as usize);
-                if c == a || c == b || d == a || d == b {
-                    return None;
-                }
-                if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32]) {
-                    return None;
-                }
-                let [pa, pb, pc, pd] = [a, b, c, d].map(|k| x.get(k));
-                let (s, u) = closest_on_segments(pa, pb, pc, pd);
-                let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
-                if gap > h + reach[a].max(reach[b]) + reach[c].max(reach[d]) {
-                    return None;
-                }
-                let r = [a, b, c, d].map(|i| mesh.rest[i]);
-                let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
-                if (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length() < h {
-                    return None;
-                }
-                Some(Pair {
-                    a: e,
-                    b: f,
-                    apart: gap,
-                })
+        let (vlo, vhi) = (lo.clone(), hi.clone());
+        let (bvh, vertex_bvh, edge_bvh) = (&mut self.bvh, &mut self.vertex_bvh, &mut self.edge_bvh);
+        let pooled = crate::exec::use_pool(n);
+        both(
+            pooled,
+            || bvh.build(tlo, thi),
+            || {
+                both(
+                    pooled,
+                    || vertex_bvh.build(vlo, vhi),
+                    || edge_bvh.build(elo, ehi),
+                )
             },
-            |p| (p.a, p.b),
         );
+        let (bvh, vertex_bvh, edge_bvh) = (&self.bvh, &self.vertex_bvh, &self.edge_bvh);
+        let triangle_reach = |t: usize| {
+            let [a, b, c] = triangles[t].map(|i| reach[i as usize]);
+            a.max(b).max(c)
+        };
+        // Vertex-triangle: every triangle whose box comes within h of the vertex's, not one of
+        // the vertex's own, not holding an exempt partner, that can come within h of it, and
+        // was not within h at rest.
+        let vertex_triangle = || {
+            vertex_bvh.collect(
+                bvh,
+                h,
+                false,
+                |v, t| {
+                    let tri = &triangles[t as usize];
+                    let v = v as usize;
+                    if tri.contains(&(v as u32)) || exempt.any(v, tri) {
+                        return None;
+                    }
+                    let p = x.get(v);
+                    let [a, b, c] = tri.map(|i| x.get(i as usize));
+                    let w = closest_on_triangle(p, a, b, c);
+                    let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
+                    if d > h + reach[v] + triangle_reach(t as usize) {
+                        return None;
+                    }
+                    let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
+                    let rp = mesh.rest[v];
+                    let wr = closest_on_triangle(rp, ra, rb, rc);
+                    if (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length() < h {
+                        return None;
+                    }
+                    Some(Pair {
+                        a: v as u32,
+                        b: t,
+                        apart: d,
+                    })
+                },
+                |p| (p.a, p.b),
+            )
+        };
+        // Edge-edge: every two edges whose boxes come within h, sharing no vertex, not exempt,
+        // that can come within h of each other and were not at rest; each pair once, the lower
+        // edge first.
+        let edge_edge = || {
+            edge_bvh.collect(
+                edge_bvh,
+                h,
+                true,
+                |e, f| {
+                    let (e, f) = (e.min(f), e.max(f));
+                    let [a, b] = edges[e as usize].map(|i| i as usize);
+                    let [c, d] = edges[f as usize].map(|i| i as usize);
+                    if c == a || c == b || d == a || d == b {
+                        return None;
+                    }
+                    if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32])
+                    {
+                        return None;
+                    }
+                    let [pa, pb, pc, pd] = [a, b, c, d].map(|k| x.get(k));
+                    let (s, u) = closest_on_segments(pa, pb, pc, pd);
+                    let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
+                    if gap > h + reach[a].max(reach[b]) + reach[c].max(reach[d]) {
+                        return None;
+                    }
+                    let r = [a, b, c, d].map(|i| mesh.rest[i]);
+                    let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
+                    if (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length() < h {
+                        return None;
+                    }
+                    Some(Pair {
+                        a: e,
+                        b: f,
+                        apart: gap,
+                    })
+                },
+                |p| (p.a, p.b),
+            )
+        };
+        (self.vertex_triangle, self.edge_edge) = both(pooled, vertex_triangle, edge_edge);
     }
 
     /// Resolves the proximities of the mesh cloth `mesh` at positions `x` (m), the side of each
@@ -758,12 +799,16 @@ fn may_touch(vt: &[Pair], ee: &[Pair], i: usize, q: [u32; 4], moved: &[Real], h:
     }
 }
 
-/// `f(0..n)` collected in order, split over the pool when `n` is large enough.
-fn map_collect<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync + Send) -> Vec<T> {
-    if crate::exec::use_pool(n) {
-        (0..n).into_par_iter().with_min_len(256).map(f).collect()
+/// `(f(), g())`, side by side on the pool when `pooled`.
+fn both<A: Send, B: Send>(
+    pooled: bool,
+    f: impl FnOnce() -> A + Send,
+    g: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    if pooled {
+        rayon::join(f, g)
     } else {
-        (0..n).map(f).collect()
+        (f(), g())
     }
 }
 
@@ -792,14 +837,18 @@ fn vertex_triangle(
     im: impl Fn(u32) -> Real,
 ) -> Option<Push> {
     let [p1, a1, b1, c1] = q.map(|k| x1.get(k as usize));
-    let w = closest_on_triangle(p1, a1, b1, c1);
-    let closest = a1 * w[0] + b1 * w[1] + c1 * w[2];
-    let d = (p1 - closest).length();
     let normal1 = (b1 - a1).cross(c1 - a1);
     let f1 = (p1 - a1).dot(normal1);
     let [p0, a0, b0, c0] = q.map(|k| x0.get(k as usize));
     let f0 = (p0 - a0).dot((b0 - a0).cross(c0 - a0));
     let flipped = (f0 > 0.0 && f1 < 0.0) || (f0 < 0.0 && f1 > 0.0);
+    // Outside the slab `reach` either side of the plane, on the side it started: apart.
+    if !flipped && f1.abs() >= reach * normal1.length() {
+        return None;
+    }
+    let w = closest_on_triangle(p1, a1, b1, c1);
+    let closest = a1 * w[0] + b1 * w[1] + c1 * w[2];
+    let d = (p1 - closest).length();
     if d >= reach && !flipped {
         return None;
     }
@@ -853,15 +902,19 @@ fn edge_edge(
     im: impl Fn(u32) -> Real,
 ) -> Option<Push> {
     let [a1, b1, c1, d1] = q.map(|k| x1.get(k as usize));
-    let (s, u) = closest_on_segments(a1, b1, c1, d1);
-    let (p, r) = (a1.lerp(b1, s), c1.lerp(d1, u));
-    let d = (p - r).length();
     let m1 = (b1 - a1).cross(d1 - c1);
     let f1 = (c1 - a1).dot(m1);
     let [a0, b0, c0, d0] = q.map(|k| x0.get(k as usize));
     let m0 = (b0 - a0).cross(d0 - c0);
     let f0 = (c0 - a0).dot(m0);
     let flipped = (f0 > 0.0 && f1 < 0.0) || (f0 < 0.0 && f1 > 0.0);
+    // The lines through them `reach` apart or more, on the sides they started: apart.
+    if !flipped && f1.abs() >= reach * m1.length() {
+        return None;
+    }
+    let (s, u) = closest_on_segments(a1, b1, c1, d1);
+    let (p, r) = (a1.lerp(b1, s), c1.lerp(d1, u));
+    let d = (p - r).length();
     if d >= reach && !flipped {
         return None;
     }
