@@ -4,7 +4,8 @@ use crate::air::AirModel;
 use crate::checkpoint::{Checkpoint, RestoreError};
 use crate::checks::{self, EnergyAudit};
 use crate::collide::contact;
-use crate::collide::self_collision::SelfCollision;
+use crate::collide::mesh_self::MeshSelf;
+use crate::collide::self_collision::{ExemptPairs, SelfCollision};
 use crate::constraints::strain_limit;
 use crate::control::{Attachment, Control, Grab, GrabMotion, GrabPick, attach};
 use crate::error::{ConfigError, StepError};
@@ -43,6 +44,12 @@ pub struct Simulation {
     air: AirModel,
     integrator: IntegratorState,
     self_collision: Option<SelfCollision>,
+    /// A mesh cloth's vertex-triangle and edge-edge self-contact (with `self_collision`); not
+    /// part of a checkpoint: it keeps nothing from one step to the next but its candidate
+    /// lists, which it rebuilds when it finds them missing.
+    mesh_self: Option<MeshSelf>,
+    /// The particle pairs self-collision leaves alone ([`Simulation::set_exempt`]).
+    exempt: ExemptPairs,
     /// The cell measures (volume, stretch, finiteness) of the current state.
     measures: Measures,
     /// Scratch of the strain limiter.
@@ -161,6 +168,11 @@ impl Simulation {
                 .cloth
                 .self_collision
                 .then(|| SelfCollision::new(n, 2.0 * model.radius)),
+            mesh_self: match (&model.mesh, config.cloth.self_collision) {
+                (Some(mesh), true) => Some(MeshSelf::new(mesh, 2.0 * model.radius)),
+                _ => None,
+            },
+            exempt: ExemptPairs::default(),
             measures: Measures::for_layout(model.layout(), AirModel::keeps_cells(&config.air)),
             strain: strain_limit::Scratch::default(),
             audit: EnergyAudit::default(),
@@ -445,11 +457,43 @@ impl Simulation {
                 .self_collision
                 .as_ref()
                 .map_or(0, SelfCollision::heap_bytes)
+            + self.mesh_self.as_ref().map_or(0, MeshSelf::heap_bytes)
+            + self.exempt.heap_bytes()
     }
 
     /// Number of self-collision neighbour-list rebuilds so far.
     pub fn self_collision_rebuilds(&self) -> u64 {
         self.self_collision.as_ref().map_or(0, |s| s.rebuilds)
+    }
+
+    /// A mesh cloth's vertex-triangle and edge-edge self-contact (see
+    /// [`crate::collide::mesh_self`]): `None` on the grid or without `self_collision`.
+    pub fn mesh_self(&self) -> Option<&MeshSelf> {
+        self.mesh_self.as_ref()
+    }
+
+    /// Exempts particle pairs from self-collision, replacing any exempted before: the particle
+    /// spheres of a pair are not pushed apart, and on a mesh cloth neither particle is pushed
+    /// from the triangles and edges holding the other. For seams, two panels sewn particle
+    /// pair by particle pair, which must close. Either order names a pair; an empty list
+    /// exempts none. Refused (nothing changed) for a particle out of range or paired with
+    /// itself. The pairs are not part of a checkpoint: set them again on a restored
+    /// simulation; [`Simulation::reset`] keeps them.
+    pub fn set_exempt(&mut self, pairs: &[[u32; 2]]) -> Result<(), ConfigError> {
+        self.exempt =
+            ExemptPairs::new(self.model.len(), pairs).map_err(|message| ConfigError::Invalid {
+                key: "exempt".into(),
+                message,
+            })?;
+        if let Some(m) = &mut self.mesh_self {
+            m.invalidate();
+        }
+        Ok(())
+    }
+
+    /// The particle pairs self-collision leaves alone ([`Simulation::set_exempt`]).
+    pub fn exempt(&self) -> &ExemptPairs {
+        &self.exempt
     }
 
     /// Replaces the particle positions (m) at the current and the previous step, e.g. to start
@@ -504,6 +548,9 @@ impl Simulation {
     fn restart_lists_and_measures(&mut self) -> Result<(), StepError> {
         if let Some(sc) = &mut self.self_collision {
             *sc = SelfCollision::new(self.model.len(), 2.0 * self.model.radius);
+        }
+        if let Some(m) = &mut self.mesh_self {
+            m.invalidate();
         }
         self.remeasure_and_check()?;
         self.settle_air_history();
@@ -582,8 +629,10 @@ impl Simulation {
     /// Resets to the state at t = 0 (the demo's button 3), keeping the air switch.
     pub fn reset(&mut self) -> Result<(), ConfigError> {
         let air = self.control.air_enabled;
+        let exempt = std::mem::take(&mut self.exempt);
         *self = Self::new(self.config.clone())?;
         self.set_air_enabled(air);
+        self.exempt = exempt;
         Ok(())
     }
 
@@ -697,7 +746,11 @@ impl Simulation {
             dt,
         );
 
-        // 3. Integrate (and count the water film's work over the step).
+        // 3. Integrate (and count the water film's work over the step). A mesh cloth's
+        // self-contact keeps the positions at the start: the side each pair belongs on.
+        if let Some(m) = &mut self.mesh_self {
+            m.begin_step(&self.state.x);
+        }
         self.start_film_work();
         let reference = self
             .self_collision
@@ -816,15 +869,30 @@ impl Simulation {
                     &|a, b| g.rest_distance(a, b),
                     &mut state.x,
                     &control.held,
+                    &self.exempt,
                     Some(moved2),
                 ),
                 crate::model::Layout::Mesh(m, _) => sc.solve_moved(
                     &|a, b| (m.rest[b] - m.rest[a]).length(),
                     &mut state.x,
                     &control.held,
+                    &self.exempt,
                     Some(moved2),
                 ),
             };
+            corrected |= hits > 0;
+        }
+        // A mesh cloth's triangles and edges: what the spheres let through (their edges are
+        // longer than the spheres are wide).
+        if let (Some(ms), crate::model::Layout::Mesh(m, _)) = (&mut self.mesh_self, model.layout())
+        {
+            let hits = ms.solve(
+                m,
+                &mut state.x,
+                &model.inv_mass,
+                &control.held,
+                &self.exempt,
+            );
             corrected |= hits > 0;
         }
         if corrected && !model.colliders.is_empty() {

@@ -687,11 +687,12 @@ fn a_mesh_cloth_holds_a_pocket_like_the_grid() {
 
 /// Self-collision on a mesh of two separate pieces (several pieces in one file are allowed):
 /// two squares, one laid 12 mm above the other and offset by half a spacing, dropped onto the
-/// table. With self-collision the upper one comes to rest on the lower, each of its particles
-/// nested in the lower's, one diameter `d` from its neighbours: the closest pair of particles
-/// of different pieces `d` apart, and the upper piece `sqrt(d^2 - o^2)` above the lower (`o`
-/// the pieces' horizontal offset); without, it falls through it onto the table (the pieces'
-/// mean heights within a fifth of a diameter).
+/// table. With self-collision the upper one comes to rest on the lower's surface, one
+/// thickness (a particle diameter `d`) above its triangles: not nested between its particles,
+/// `sqrt(d^2 - o^2)` above them (`o` the pieces' horizontal offset), as the spheres alone
+/// would let it sink; the closest pair of particles of different pieces at least `d` apart.
+/// Without, it falls through it onto the table (the pieces' mean heights within a fifth of a
+/// diameter).
 #[test]
 fn self_collision_keeps_two_mesh_pieces_apart() {
     let stack = |self_collision: bool| {
@@ -724,9 +725,7 @@ fn self_collision_keeps_two_mesh_pieces_apart() {
         }
         let lower: Real = q.y[..m].iter().sum::<Real>() / m as Real;
         let upper: Real = q.y[m..].iter().sum::<Real>() / m as Real;
-        let o = 0.5 * h * (2.0 as Real).sqrt();
-        let nested = ((2.0 * r).powi(2) - o * o).sqrt();
-        (closest / (2.0 * r), (upper - lower) / nested)
+        (closest / (2.0 * r), (upper - lower) / (2.0 * r))
     };
     let (with, with_lift) = stack(true);
     let (_, without_lift) = stack(false);
@@ -737,7 +736,7 @@ fn self_collision_keeps_two_mesh_pieces_apart() {
     );
     assert!(
         (with_lift - 1.0).abs() < 0.02,
-        "the upper piece rests nested on the lower: {with_lift} of the nested height"
+        "the upper piece rests a thickness over the lower: {with_lift} diameters"
     );
     assert!(
         without_lift.abs() < 0.2,

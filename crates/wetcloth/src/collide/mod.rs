@@ -15,12 +15,14 @@
 //! | `mesh.rs` | [`Mesh`]: triangle mesh from a file, closed (a solid) or open (a sheet) |
 //! | `motion.rs` | keys of a moving collider and the [`motion::Placement`] they give |
 //! | `contact.rs` | normal force and friction as a position correction, for any shape |
-//! | `self_collision.rs` | particle-particle collision: hashed grid, skinned lists, Jacobi |
+//! | `self_collision.rs` | particle-particle collision: hashed grid, skinned lists, Jacobi; exempt pairs |
+//! | `mesh_self.rs` | a mesh cloth's vertex-triangle and edge-edge self-contact, sides from the step's start |
 
 pub mod contact;
 pub mod cuboid;
 pub mod deform;
 pub mod mesh;
+pub mod mesh_self;
 pub mod motion;
 pub mod plane;
 pub mod self_collision;

@@ -11,6 +11,10 @@
 //!
 //! Grid neighbours closer at rest than the diameter (a very fine cloth) are kept at their rest
 //! distance instead: they are not pushed apart by the cloth's own tessellation.
+//!
+//! Pairs named in [`ExemptPairs`] (the particles of a seam, sewn pair by pair) are never pushed
+//! apart, here or by a mesh cloth's vertex-triangle and edge-edge contact
+//! ([`super::mesh_self`]).
 
 use crate::math::{Real, Soa, Vec3};
 use crate::model::Grid;
@@ -39,6 +43,101 @@ pub struct SelfCollision {
     corrections: Soa,
     /// How many times the neighbour lists were built.
     pub rebuilds: u64,
+}
+
+/// Particle pairs self-collision leaves alone (the two sides of a seam): a symmetric relation,
+/// kept as each particle's sorted list of partners.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExemptPairs {
+    /// Partners of `i` are `partners[start[i]..start[i + 1]]` (empty when there are none).
+    start: Vec<u32>,
+    partners: Vec<u32>,
+}
+
+impl ExemptPairs {
+    /// The pairs `pairs` among `n` particles (either order; repeats are kept once). `Err` names
+    /// the first pair with a particle out of range or a particle paired with itself.
+    pub fn new(n: usize, pairs: &[[u32; 2]]) -> Result<Self, String> {
+        if pairs.is_empty() {
+            return Ok(Self::default());
+        }
+        if let Some((i, p)) = pairs
+            .iter()
+            .enumerate()
+            .find(|(_, p)| p[0] as usize >= n || p[1] as usize >= n || p[0] == p[1])
+        {
+            return Err(if p[0] == p[1] {
+                format!("pair {i} joins particle {} to itself", p[0])
+            } else {
+                format!("pair {i} names a particle out of range: the cloth has {n} particles")
+            });
+        }
+        let mut count = vec![0u32; n + 1];
+        for p in pairs {
+            count[p[0] as usize + 1] += 1;
+            count[p[1] as usize + 1] += 1;
+        }
+        for i in 0..n {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        let mut partners = vec![0u32; count[n] as usize];
+        for p in pairs {
+            for (a, b) in [(p[0], p[1]), (p[1], p[0])] {
+                partners[fill[a as usize] as usize] = b;
+                fill[a as usize] += 1;
+            }
+        }
+        // Sorted and without repeats, row by row.
+        let mut start = Vec::with_capacity(n + 1);
+        let mut out = Vec::with_capacity(partners.len());
+        start.push(0u32);
+        for i in 0..n {
+            let row = &mut partners[count[i] as usize..count[i + 1] as usize];
+            row.sort_unstable();
+            let from = out.len();
+            for &j in row.iter() {
+                if out.len() == from || out[out.len() - 1] != j {
+                    out.push(j);
+                }
+            }
+            start.push(out.len() as u32);
+        }
+        Ok(Self {
+            start,
+            partners: out,
+        })
+    }
+
+    /// True when no pair is exempt.
+    pub fn is_empty(&self) -> bool {
+        self.partners.is_empty()
+    }
+
+    /// Number of exempt pairs.
+    pub fn len(&self) -> usize {
+        self.partners.len() / 2
+    }
+
+    /// Whether particles `a` and `b` are an exempt pair.
+    #[inline]
+    pub fn contains(&self, a: usize, b: usize) -> bool {
+        !self.partners.is_empty()
+            && self.partners[self.start[a] as usize..self.start[a + 1] as usize]
+                .binary_search(&(b as u32))
+                .is_ok()
+    }
+
+    /// Whether particle `a` is exempt from any of `others`.
+    #[inline]
+    pub fn any(&self, a: usize, others: &[u32]) -> bool {
+        !self.partners.is_empty() && others.iter().any(|&b| self.contains(a, b as usize))
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        (self.start.capacity() + self.partners.capacity()) * std::mem::size_of::<u32>()
+    }
 }
 
 #[inline]
@@ -214,16 +313,20 @@ impl SelfCollision {
     /// Pushes overlapping particles apart. `fixed[i]` marks grabbed particles, which do not
     /// move. Returns the number of overlapping (ordered) pairs found.
     pub fn solve(&mut self, grid: &Grid, p: &mut Soa, fixed: &[bool]) -> usize {
-        self.solve_moved(&|a, b| grid.rest_distance(a, b), p, fixed, None)
+        let none = ExemptPairs::default();
+        self.solve_moved(&|a, b| grid.rest_distance(a, b), p, fixed, &none, None)
     }
 
-    /// [`SelfCollision::solve`], given the largest squared distance (m^2) any particle of `p`
-    /// has moved from [`SelfCollision::reference`] if the caller measured it already.
+    /// [`SelfCollision::solve`] with the rest distance of any two particles `rest_distance`,
+    /// leaving the pairs of `exempt` alone, given the largest squared distance (m^2) any
+    /// particle of `p` has moved from [`SelfCollision::reference`] if the caller measured it
+    /// already.
     pub fn solve_moved<R: Fn(usize, usize) -> Real + Sync>(
         &mut self,
         rest_distance: &R,
         p: &mut Soa,
         fixed: &[bool],
+        exempt: &ExemptPairs,
         moved2: Option<Real>,
     ) -> usize {
         // Particles of no size never overlap (and a hash grid of cells of no size would put
@@ -256,7 +359,7 @@ impl SelfCollision {
                     let min = d.min(rest_distance(i, j));
                     let delta = pi - pr.get(j);
                     let dist = delta.length();
-                    if dist < min && dist > 0.0 {
+                    if dist < min && dist > 0.0 && !exempt.contains(i, j) {
                         hits += 1;
                         let share = if fixed[j] { 1.0 } else { 0.5 };
                         corr += delta * (share * (min - dist) / dist);
@@ -269,5 +372,41 @@ impl SelfCollision {
             crate::exec::add_assign(p, &self.corrections);
         }
         hits
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two overlapping particles are pushed apart to the diameter, unless their pair is exempt.
+    #[test]
+    fn exempt_pairs_are_not_pushed_apart() {
+        let d = 0.002;
+        let start = Soa::from_vec3(&[
+            Vec3::ZERO,
+            Vec3::new(0.0005, 0.0, 0.0),
+            Vec3::new(0.1, 0.0, 0.0),
+        ]);
+        let run = |exempt: &ExemptPairs| {
+            let mut p = start.clone();
+            let mut sc = SelfCollision::new(3, d);
+            let hits = sc.solve_moved(&|_, _| 1.0, &mut p, &[false; 3], exempt, None);
+            (hits, (p.get(1) - p.get(0)).length())
+        };
+        let (hits, gap) = run(&ExemptPairs::default());
+        assert_eq!(hits, 2);
+        assert!((gap - d).abs() < 1e-15, "{gap}");
+        // Either order names the pair; the third particle is nobody's partner.
+        let exempt = ExemptPairs::new(3, &[[1, 0]]).unwrap();
+        assert!(exempt.contains(0, 1) && exempt.contains(1, 0) && !exempt.contains(0, 2));
+        assert_eq!(exempt.len(), 1);
+        assert_eq!(run(&exempt), (0, 0.0005));
+        assert!(ExemptPairs::new(3, &[[0, 3]]).is_err());
+        assert!(ExemptPairs::new(3, &[[2, 2]]).is_err());
+        // Repeats are kept once.
+        let twice = ExemptPairs::new(3, &[[0, 1], [1, 0], [2, 0]]).unwrap();
+        assert_eq!(twice.len(), 2);
+        assert!(twice.any(0, &[2]) && !twice.any(1, &[2]));
     }
 }
