@@ -172,7 +172,10 @@ impl Simulation {
                 (Some(mesh), true) => Some(MeshSelf::new(mesh, 2.0 * model.radius)),
                 _ => None,
             },
-            exempt: ExemptPairs::default(),
+            // The seams' pairs close: their particles do not push each other apart.
+            exempt: model.seams.as_ref().map_or_else(ExemptPairs::default, |s| {
+                ExemptPairs::new(n, s.exempt_pairs()).expect("validated seams")
+            }),
             measures: Measures::for_layout(model.layout(), AirModel::keeps_cells(&config.air)),
             strain: strain_limit::Scratch::default(),
             audit: EnergyAudit::default(),
@@ -478,10 +481,13 @@ impl Simulation {
     /// pair by particle pair, which must close. Either order names a pair; an empty list
     /// exempts none. Refused (nothing changed) for a particle out of range or paired with
     /// itself. The pairs are not part of a checkpoint: set them again on a restored
-    /// simulation; [`Simulation::reset`] keeps them.
+    /// simulation; [`Simulation::reset`] keeps them. The seams' pairs (`[[cloth.seam]]`) are
+    /// always exempt, whatever this is given.
     pub fn set_exempt(&mut self, pairs: &[[u32; 2]]) -> Result<(), ConfigError> {
+        let seams = self.model.seams.as_ref().map_or(&[][..], |s| s.exempt_pairs());
+        let all: Vec<[u32; 2]> = seams.iter().chain(pairs).copied().collect();
         self.exempt =
-            ExemptPairs::new(self.model.len(), pairs).map_err(|message| ConfigError::Invalid {
+            ExemptPairs::new(self.model.len(), &all).map_err(|message| ConfigError::Invalid {
                 key: "exempt".into(),
                 message,
             })?;
