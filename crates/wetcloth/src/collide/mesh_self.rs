@@ -80,7 +80,7 @@ const OMEGA: Real = 1.5;
 const LEAF: usize = 4;
 
 /// A candidate pair: a vertex and a triangle, or two edges (indices into the mesh's edges).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Pair {
     a: u32,
     b: u32,
@@ -279,17 +279,17 @@ impl Bvh {
     }
 
     /// The pairs of overlapping boxes of `self` and `other` (`self`'s grown by `grow`; with
-    /// `same`, `other` is `self` and each pair of distinct boxes comes once), as the items
-    /// `keep(i, j)` makes of them, in the order of `order`. The traversal is shared out over
-    /// the pool as independent pairs of subtrees.
-    fn collect<T: Send, K: Ord>(
+    /// `same`, `other` is `self` and each pair of distinct boxes comes once), as the pairs
+    /// `keep(i, j)` makes of them (their `a` below the number of `self`'s boxes), sorted by
+    /// `a` then `b`. The traversal is shared out over the pool as independent pairs of
+    /// subtrees.
+    fn collect(
         &self,
         other: &Bvh,
         grow: Real,
         same: bool,
-        keep: impl Fn(u32, u32) -> Option<T> + Sync + Send,
-        order: impl Fn(&T) -> K,
-    ) -> Vec<T> {
+        keep: impl Fn(u32, u32) -> Option<Pair> + Sync + Send,
+    ) -> Vec<Pair> {
         if self.nodes.is_empty() || other.nodes.is_empty() {
             return Vec::new();
         }
@@ -328,13 +328,28 @@ impl Bvh {
             found
         };
         // Shared out by the boxes' count (the tasks are few, each large).
-        let found: Vec<Vec<T>> = if crate::exec::use_pool(self.lo.len() + other.lo.len()) {
+        let found: Vec<Vec<Pair>> = if crate::exec::use_pool(self.lo.len() + other.lo.len()) {
             tasks.par_iter().map(task).collect()
         } else {
             tasks.iter().map(task).collect()
         };
-        let mut out: Vec<T> = found.into_iter().flatten().collect();
-        out.sort_unstable_by_key(order);
+        // Counted into place by `a`, then each run sorted by `b`.
+        let mut start = vec![0u32; self.lo.len() + 1];
+        for p in found.iter().flatten() {
+            start[p.a as usize + 1] += 1;
+        }
+        for i in 0..self.lo.len() {
+            start[i + 1] += start[i];
+        }
+        let mut out = vec![Pair::default(); start[self.lo.len()] as usize];
+        let mut fill = start.clone();
+        for p in found.into_iter().flatten() {
+            out[fill[p.a as usize] as usize] = p;
+            fill[p.a as usize] += 1;
+        }
+        for w in start.windows(2) {
+            out[w[0] as usize..w[1] as usize].sort_unstable_by_key(|p| p.b);
+        }
         out
     }
 
@@ -514,76 +529,63 @@ impl MeshSelf {
         // the vertex's own, not holding an exempt partner, that can come within h of it, and
         // was not within h at rest.
         let vertex_triangle = || {
-            vertex_bvh.collect(
-                bvh,
-                h,
-                false,
-                |v, t| {
-                    let tri = &triangles[t as usize];
-                    let v = v as usize;
-                    if tri.contains(&(v as u32)) || exempt.any(v, tri) {
-                        return None;
-                    }
-                    let p = x.get(v);
-                    let [a, b, c] = tri.map(|i| x.get(i as usize));
-                    let w = closest_on_triangle(p, a, b, c);
-                    let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
-                    if d > h + reach[v] + triangle_reach(t as usize) {
-                        return None;
-                    }
-                    let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
-                    let rp = mesh.rest[v];
-                    let wr = closest_on_triangle(rp, ra, rb, rc);
-                    if (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length() < h {
-                        return None;
-                    }
-                    Some(Pair {
-                        a: v as u32,
-                        b: t,
-                        apart: d,
-                    })
-                },
-                |p| (p.a, p.b),
-            )
+            vertex_bvh.collect(bvh, h, false, |v, t| {
+                let tri = &triangles[t as usize];
+                let v = v as usize;
+                if tri.contains(&(v as u32)) || exempt.any(v, tri) {
+                    return None;
+                }
+                let p = x.get(v);
+                let [a, b, c] = tri.map(|i| x.get(i as usize));
+                let w = closest_on_triangle(p, a, b, c);
+                let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
+                if d > h + reach[v] + triangle_reach(t as usize) {
+                    return None;
+                }
+                let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
+                let rp = mesh.rest[v];
+                let wr = closest_on_triangle(rp, ra, rb, rc);
+                if (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length() < h {
+                    return None;
+                }
+                Some(Pair {
+                    a: v as u32,
+                    b: t,
+                    apart: d,
+                })
+            })
         };
         // Edge-edge: every two edges whose boxes come within h, sharing no vertex, not exempt,
         // that can come within h of each other and were not at rest; each pair once, the lower
         // edge first.
         let edge_edge = || {
-            edge_bvh.collect(
-                edge_bvh,
-                h,
-                true,
-                |e, f| {
-                    let (e, f) = (e.min(f), e.max(f));
-                    let [a, b] = edges[e as usize].map(|i| i as usize);
-                    let [c, d] = edges[f as usize].map(|i| i as usize);
-                    if c == a || c == b || d == a || d == b {
-                        return None;
-                    }
-                    if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32])
-                    {
-                        return None;
-                    }
-                    let [pa, pb, pc, pd] = [a, b, c, d].map(|k| x.get(k));
-                    let (s, u) = closest_on_segments(pa, pb, pc, pd);
-                    let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
-                    if gap > h + reach[a].max(reach[b]) + reach[c].max(reach[d]) {
-                        return None;
-                    }
-                    let r = [a, b, c, d].map(|i| mesh.rest[i]);
-                    let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
-                    if (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length() < h {
-                        return None;
-                    }
-                    Some(Pair {
-                        a: e,
-                        b: f,
-                        apart: gap,
-                    })
-                },
-                |p| (p.a, p.b),
-            )
+            edge_bvh.collect(edge_bvh, h, true, |e, f| {
+                let (e, f) = (e.min(f), e.max(f));
+                let [a, b] = edges[e as usize].map(|i| i as usize);
+                let [c, d] = edges[f as usize].map(|i| i as usize);
+                if c == a || c == b || d == a || d == b {
+                    return None;
+                }
+                if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32]) {
+                    return None;
+                }
+                let [pa, pb, pc, pd] = [a, b, c, d].map(|k| x.get(k));
+                let (s, u) = closest_on_segments(pa, pb, pc, pd);
+                let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
+                if gap > h + reach[a].max(reach[b]) + reach[c].max(reach[d]) {
+                    return None;
+                }
+                let r = [a, b, c, d].map(|i| mesh.rest[i]);
+                let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
+                if (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length() < h {
+                    return None;
+                }
+                Some(Pair {
+                    a: e,
+                    b: f,
+                    apart: gap,
+                })
+            })
         };
         (self.vertex_triangle, self.edge_edge) = both(pooled, vertex_triangle, edge_edge);
     }
