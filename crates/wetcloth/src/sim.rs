@@ -484,7 +484,11 @@ impl Simulation {
     /// simulation; [`Simulation::reset`] keeps them. The seams' pairs (`[[cloth.seam]]`) are
     /// always exempt, whatever this is given.
     pub fn set_exempt(&mut self, pairs: &[[u32; 2]]) -> Result<(), ConfigError> {
-        let seams = self.model.seams.as_ref().map_or(&[][..], |s| s.exempt_pairs());
+        let seams = self
+            .model
+            .seams
+            .as_ref()
+            .map_or(&[][..], |s| s.exempt_pairs());
         let all: Vec<[u32; 2]> = seams.iter().chain(pairs).copied().collect();
         self.exempt =
             ExemptPairs::new(self.model.len(), &all).map_err(|message| ConfigError::Invalid {
