@@ -36,19 +36,30 @@
 //! Pairs that share a vertex, and the pairs of [`ExemptPairs`] (seams), are never tested.
 //!
 //! **Broad phase.** Each particle's box is the sweep of its move over the step, widened by a
-//! skin of `2 h` (or half the mean edge, if less); a triangle's or an edge's box holds its corners'. Bounding volume hierarchies
-//! over the particles', triangles' and edges' boxes (median splits, ties by index), traversed
-//! two at a time (particles against triangles, edges against themselves) in independent
-//! subtrees over the thread pool, give every pair whose boxes come within `h` of each other
-//! and whose distance could come within `h` while its particles stay in their boxes: the
-//! candidate lists, sorted. They hold while every particle's start and end positions stay in
-//! its box once a common move is taken away (distances do not change when the whole cloth
-//! moves: a falling cloth keeps its lists), so a settling cloth rebuilds them every few tens of
-//! steps. Each step the first iteration also passes over a pair, untested, when it was farther
-//! apart at the build than its distance plus how far both sides have moved since. Lists and
-//! hierarchies are never saved: a checkpoint does not carry them, and since pairs that do not
-//! touch add nothing, a resumed run finds the same contacts in the same order and continues bit
-//! for bit.
+//! skin of `2 h` (or half the mean edge at rest, if less); a triangle's or an edge's box holds
+//! its corners'. Bounding volume hierarchies over the particles', triangles' and edges' boxes
+//! (median splits, ties by index), traversed two at a time (particles against triangles,
+//! edges against themselves) in independent subtrees over the thread pool, give every pair
+//! whose boxes come within `h` of each other and whose distance could come within `h` while its
+//! particles stay in their boxes: the candidate lists, sorted. They hold while every
+//! particle's start and end positions stay in its box once a common move is taken away
+//! (distances do not change when the whole cloth moves: a falling cloth keeps its lists). When
+//! a few particles (a sixty-fourth at most) leave their boxes, theirs are widened, the
+//! hierarchies refitted and the pairs the widening brings in added; more, or widening an
+//! eighth of the particles since the build, and the lists are built again.
+//!
+//! **Pairs passed over.** Each pair keeps a distance it was at least apart at reference
+//! positions (the build's, measured again at the first iteration's positions once more than a
+//! quarter of the pairs came near): a pair farther apart there than `h` plus how far both its
+//! sides have moved since is passed over untested, and one outside the slab of its triangle's
+//! plane (the line through the other edge) on the side it started is let go before its closest
+//! points are sought. After the first iteration, when every pair it found is short of `h` by
+//! less than the slack less twice the largest move it made, no pair can be found by a second.
+//!
+//! Nothing here is saved: a checkpoint does not carry the lists and hierarchies, and since the
+//! pairs passed over cannot touch and pairs that do not touch add nothing, a resumed run (or
+//! one whose lists were built at other times) finds the same contacts in the same order and
+//! continues bit for bit.
 //!
 //! Only the pairs a step brings within `h` (or through each other) are pushed, from where the
 //! step started: a pair already on the wrong side at the step's start (left so by an earlier
