@@ -6,7 +6,8 @@
 //! particles (default 100: 5 000). Prints particle-steps per second with self-collision on
 //! (particle spheres, and the triangles and edges) and off, the median of three runs of `STEPS`
 //! steps each (default 200) after `WARMUP` steps (default 50), and the self-contact's candidate
-//! pairs, contacts at the last step and list rebuilds.
+//! pairs, contacts at the last step, list rebuilds and repairs (a few particles' boxes
+//! widened).
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -117,13 +118,13 @@ fn main() {
             rates.push((steps * n as u64) as f64 / t0.elapsed().as_secs_f64());
         }
         rates.sort_by(f64::total_cmp);
-        let (pairs, contacts, rebuilds) = sim.mesh_self().map_or(((0, 0), 0, 0), |m| {
-            (m.candidate_count(), m.contacts, m.rebuilds)
+        let (pairs, contacts, rebuilds, repairs) = sim.mesh_self().map_or(((0, 0), 0, 0, 0), |m| {
+            (m.candidate_count(), m.contacts, m.rebuilds, m.repairs)
         });
         println!(
             "{integrator:?} {n} particles, self-collision {on}: {:.3e} particle-steps/s \
              (runs {:.3e} {:.3e} {:.3e}); candidates {pairs:?}, contacts {contacts}, \
-             rebuilds {rebuilds} in {} steps",
+             rebuilds {rebuilds} (and {repairs} repairs) in {} steps",
             rates[1],
             rates[0],
             rates[1],

@@ -36,19 +36,30 @@
 //! Pairs that share a vertex, and the pairs of [`ExemptPairs`] (seams), are never tested.
 //!
 //! **Broad phase.** Each particle's box is the sweep of its move over the step, widened by a
-//! skin of `2 h` (or half the mean edge, if less); a triangle's or an edge's box holds its corners'. Bounding volume hierarchies
-//! over the particles', triangles' and edges' boxes (median splits, ties by index), traversed
-//! two at a time (particles against triangles, edges against themselves) in independent
-//! subtrees over the thread pool, give every pair whose boxes come within `h` of each other
-//! and whose distance could come within `h` while its particles stay in their boxes: the
-//! candidate lists, sorted. They hold while every particle's start and end positions stay in
-//! its box once a common move is taken away (distances do not change when the whole cloth
-//! moves: a falling cloth keeps its lists), so a settling cloth rebuilds them every few tens of
-//! steps. Each step the first iteration also passes over a pair, untested, when it was farther
-//! apart at the build than its distance plus how far both sides have moved since. Lists and
-//! hierarchies are never saved: a checkpoint does not carry them, and since pairs that do not
-//! touch add nothing, a resumed run finds the same contacts in the same order and continues bit
-//! for bit.
+//! skin of `2 h` (or half the mean edge at rest, if less); a triangle's or an edge's box holds
+//! its corners'. Bounding volume hierarchies over the particles', triangles' and edges' boxes
+//! (median splits, ties by index), traversed two at a time (particles against triangles,
+//! edges against themselves) in independent subtrees over the thread pool, give every pair
+//! whose boxes come within `h` of each other and whose distance could come within `h` while its
+//! particles stay in their boxes: the candidate lists, sorted. They hold while every
+//! particle's start and end positions stay in its box once a common move is taken away
+//! (distances do not change when the whole cloth moves: a falling cloth keeps its lists). When
+//! a few particles (a sixty-fourth at most) leave their boxes, theirs are widened, the
+//! hierarchies refitted and the pairs the widening brings in added; more, or widening an
+//! eighth of the particles since the build, and the lists are built again.
+//!
+//! **Pairs passed over.** Each pair keeps a distance it was at least apart at reference
+//! positions (the build's, measured again at the first iteration's positions once more than a
+//! quarter of the pairs came near): a pair farther apart there than `h` plus how far both its
+//! sides have moved since is passed over untested, and one outside the slab of its triangle's
+//! plane (the line through the other edge) on the side it started is let go before its closest
+//! points are sought. After the first iteration, when every pair it found is short of `h` by
+//! less than the slack less twice the largest move it made, no pair can be found by a second.
+//!
+//! Nothing here is saved: a checkpoint does not carry the lists and hierarchies, and since the
+//! pairs passed over cannot touch and pairs that do not touch add nothing, a resumed run (or
+//! one whose lists were built at other times) finds the same contacts in the same order and
+//! continues bit for bit.
 //!
 //! Only the pairs a step brings within `h` (or through each other) are pushed, from where the
 //! step started: a pair already on the wrong side at the step's start (left so by an earlier
@@ -191,6 +202,54 @@ impl Bvh {
         let node = &mut self.nodes[index];
         (node.lo, node.hi, node.right) = (l.lo.min(r.lo), l.hi.max(r.hi), right);
         index as u32
+    }
+
+    /// Calls `hit` with every box overlapping `[lo, hi]`.
+    fn query(&self, lo: Vec3, hi: Vec3, mut hit: impl FnMut(u32)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        // Depth-first; a tree of 2^22 boxes split at medians is 21 levels deep.
+        let mut stack = [0u32; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let index = stack[top];
+            let node = &self.nodes[index as usize];
+            if node.lo.cmpgt(hi).any() || lo.cmpgt(node.hi).any() {
+                continue;
+            }
+            if node.count > 0 {
+                for &i in self.items(index) {
+                    let j = i as usize;
+                    if !(self.lo[j].cmpgt(hi).any() || lo.cmpgt(self.hi[j]).any()) {
+                        hit(i);
+                    }
+                }
+            } else {
+                stack[top] = index + 1;
+                stack[top + 1] = node.right;
+                top += 2;
+            }
+        }
+    }
+
+    /// The nodes' boxes again from their boxes' (children come after their parents).
+    fn refit(&mut self) {
+        for index in (0..self.nodes.len()).rev() {
+            let node = self.nodes[index];
+            let (lo, hi) = if node.count > 0 {
+                let items = &self.order[node.first as usize..(node.first + node.count) as usize];
+                items.iter().fold(
+                    (Vec3::splat(Real::INFINITY), Vec3::splat(-Real::INFINITY)),
+                    |(l, h), &i| (l.min(self.lo[i as usize]), h.max(self.hi[i as usize])),
+                )
+            } else {
+                let (l, r) = (self.nodes[index + 1], self.nodes[node.right as usize]);
+                (l.lo.min(r.lo), l.hi.max(r.hi))
+            };
+            (self.nodes[index].lo, self.nodes[index].hi) = (lo, hi);
+        }
     }
 
     /// Whether node `a` of `self` and node `b` of `other` overlap, `self`'s grown by `grow`.
@@ -373,9 +432,16 @@ pub struct MeshSelf {
     start: Soa,
     /// Whether the candidate lists are of the current exempt pairs.
     lists_valid: bool,
-    /// The box each particle may be anywhere in while the lists hold, m.
+    /// The box each particle may be anywhere in while the lists hold, m, and how far that
+    /// reaches from where the lists were built, m.
     lo: Vec<Vec3>,
     hi: Vec<Vec3>,
+    reach: Vec<Real>,
+    /// The edges at each particle: `vertex_edges[edge_start[k]..edge_start[k + 1]]`.
+    edge_start: Vec<u32>,
+    vertex_edges: Vec<u32>,
+    /// Particles whose boxes were widened since the lists were built.
+    repaired: usize,
     /// Candidate pairs: vertex-triangle, then edge-edge, each sorted.
     vertex_triangle: Vec<Pair>,
     edge_edge: Vec<Pair>,
@@ -388,12 +454,17 @@ pub struct MeshSelf {
     sum: Vec<Vec3>,
     touched: Vec<u32>,
     active: Vec<u32>,
-    /// The end positions the lists were built at, and how far each particle has been from
-    /// them during the step, m.
+    /// The end positions the lists were built at, m.
     built: Soa,
+    /// The positions the pairs' distances were measured at, how far each particle has been
+    /// from them during the step (m), and how many pairs the last step found near.
+    reference: Soa,
     moved: Vec<Real>,
+    near: usize,
     /// How many times the candidate lists were built.
     pub rebuilds: u64,
+    /// How many times a few particles' boxes were widened instead.
+    pub repairs: u64,
     /// Contacts found at the first iteration of the last step.
     pub contacts: usize,
 }
@@ -407,9 +478,28 @@ impl MeshSelf {
             .map(|&[a, b]| (mesh.rest[b as usize] - mesh.rest[a as usize]).length())
             .sum::<Real>()
             / mesh.edges.len().max(1) as Real;
+        let n = mesh.len();
+        let mut edge_start = vec![0u32; n + 1];
+        for &[a, b] in &mesh.edges {
+            edge_start[a as usize + 1] += 1;
+            edge_start[b as usize + 1] += 1;
+        }
+        for k in 0..n {
+            edge_start[k + 1] += edge_start[k];
+        }
+        let mut fill = edge_start.clone();
+        let mut vertex_edges = vec![0u32; edge_start[n] as usize];
+        for (e, &[a, b]) in mesh.edges.iter().enumerate() {
+            for k in [a as usize, b as usize] {
+                vertex_edges[fill[k] as usize] = e as u32;
+                fill[k] += 1;
+            }
+        }
         Self {
             thickness,
             skin: (SKIN * thickness).min(SKIN_PER_EDGE * edge),
+            edge_start,
+            vertex_edges,
             ..Default::default()
         }
     }
@@ -446,67 +536,62 @@ impl MeshSelf {
             + self.edge_bvh.heap_bytes()
             + self.vertex_bvh.heap_bytes()
             + self.built.heap_bytes()
-            + self.moved.capacity() * size_of::<Real>()
+            + self.reference.heap_bytes()
+            + (self.moved.capacity() + self.reach.capacity()) * size_of::<Real>()
+            + (self.edge_start.capacity() + self.vertex_edges.capacity()) * 4
     }
 
-    /// Whether every particle's start and end positions, less `shift` (m), are in its box.
-    fn lists_hold(&self, x: &Soa, shift: Vec3) -> bool {
-        let n = x.len();
-        if !self.lists_valid || self.lo.len() != n {
-            return false;
-        }
+    /// The particles whose start or end position, less `shift` (m), is out of its box.
+    fn outside(&self, x: &Soa, shift: Vec3) -> Vec<u32> {
         let inside = |k: usize| {
             let (lo, hi) = (self.lo[k], self.hi[k]);
             let (a, b) = (self.start.get(k) - shift, x.get(k) - shift);
             lo.cmple(a).all() && a.cmple(hi).all() && lo.cmple(b).all() && b.cmple(hi).all()
         };
-        if crate::exec::use_pool(n) {
-            (0..n).into_par_iter().with_min_len(1024).all(inside)
-        } else {
-            (0..n).all(inside)
+        (0..x.len() as u32)
+            .filter(|&k| !inside(k as usize))
+            .collect()
+    }
+
+    /// The tests a candidate pair passes, at the positions the lists were built at.
+    fn filter<'a>(&'a self, mesh: &'a ClothMesh, exempt: &'a ExemptPairs) -> PairFilter<'a> {
+        PairFilter {
+            mesh,
+            exempt,
+            x: &self.built,
+            reach: &self.reach,
+            h: self.thickness,
         }
     }
 
     /// Builds the candidate lists for start positions `self.start` and end positions `x`.
     fn rebuild(&mut self, mesh: &ClothMesh, x: &Soa, exempt: &ExemptPairs) {
         self.rebuilds += 1;
+        self.repaired = 0;
         self.lists_valid = true;
         self.built.clone_from(x);
+        self.reference.clone_from(x);
+        self.near = 0;
         let n = x.len();
         let h = self.thickness;
-        let half_skin = 0.5 * self.skin;
+        let half_skin = Vec3::splat(0.5 * self.skin);
         self.lo.clear();
         self.hi.clear();
         for k in 0..n {
             let (a, b) = (self.start.get(k), x.get(k));
-            self.lo.push(a.min(b) - Vec3::splat(half_skin));
-            self.hi.push(a.max(b) + Vec3::splat(half_skin));
+            self.lo.push(a.min(b) - half_skin);
+            self.hi.push(a.max(b) + half_skin);
         }
         // How far each particle may be from its end position while the lists hold: to the
         // farthest corner of its box.
-        let reach: Vec<Real> = (0..n)
-            .map(|k| {
-                let p = x.get(k);
-                (p - self.lo[k]).max(self.hi[k] - p).length()
-            })
-            .collect();
-        let (lo, hi) = (&self.lo, &self.hi);
-        let (triangles, edges) = (&mesh.triangles, &mesh.edges);
-        let (tlo, thi): (Vec<Vec3>, Vec<Vec3>) = triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| i as usize);
-                (lo[a].min(lo[b]).min(lo[c]), hi[a].max(hi[b]).max(hi[c]))
-            })
-            .unzip();
-        let (elo, ehi): (Vec<Vec3>, Vec<Vec3>) = edges
-            .iter()
-            .map(|&[a, b]| {
-                let (a, b) = (a as usize, b as usize);
-                (lo[a].min(lo[b]), hi[a].max(hi[b]))
-            })
-            .unzip();
-        let (vlo, vhi) = (lo.clone(), hi.clone());
+        self.reach.clear();
+        self.reach.extend((0..n).map(|k| {
+            let p = x.get(k);
+            (p - self.lo[k]).max(self.hi[k] - p).length()
+        }));
+        let (tlo, thi) = self.triangle_boxes(mesh, 0..mesh.triangles.len());
+        let (elo, ehi) = self.edge_boxes(mesh, 0..mesh.edges.len());
+        let (vlo, vhi) = (self.lo.clone(), self.hi.clone());
         let (bvh, vertex_bvh, edge_bvh) = (&mut self.bvh, &mut self.vertex_bvh, &mut self.edge_bvh);
         let pooled = crate::exec::use_pool(n);
         both(
@@ -520,74 +605,141 @@ impl MeshSelf {
                 )
             },
         );
+        let filter = self.filter(mesh, exempt);
         let (bvh, vertex_bvh, edge_bvh) = (&self.bvh, &self.vertex_bvh, &self.edge_bvh);
-        let triangle_reach = |t: usize| {
-            let [a, b, c] = triangles[t].map(|i| reach[i as usize]);
-            a.max(b).max(c)
-        };
-        // Vertex-triangle: every triangle whose box comes within h of the vertex's, not one of
-        // the vertex's own, not holding an exempt partner, that can come within h of it, and
-        // was not within h at rest.
-        let vertex_triangle = || {
-            vertex_bvh.collect(bvh, h, false, |v, t| {
-                let tri = &triangles[t as usize];
-                let v = v as usize;
-                if tri.contains(&(v as u32)) || exempt.any(v, tri) {
-                    return None;
-                }
-                let p = x.get(v);
-                let [a, b, c] = tri.map(|i| x.get(i as usize));
-                let w = closest_on_triangle(p, a, b, c);
-                let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
-                if d > h + reach[v] + triangle_reach(t as usize) {
-                    return None;
-                }
-                let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
-                let rp = mesh.rest[v];
-                let wr = closest_on_triangle(rp, ra, rb, rc);
-                if (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length() < h {
-                    return None;
-                }
-                Some(Pair {
-                    a: v as u32,
-                    b: t,
-                    apart: d,
-                })
+        // Vertex-triangle: every triangle whose box comes within h of the vertex's, and that
+        // passes the filter; edge-edge: every two edges whose boxes come within h, each pair
+        // once, the lower edge first.
+        let (vertex_triangle, edge_edge) = both(
+            pooled,
+            || vertex_bvh.collect(bvh, h, false, |v, t| filter.vertex_triangle(v, t)),
+            || edge_bvh.collect(edge_bvh, h, true, |e, f| filter.edge_edge(e, f)),
+        );
+        (self.vertex_triangle, self.edge_edge) = (vertex_triangle, edge_edge);
+    }
+
+    /// The boxes of triangles `range`: their corners' boxes together.
+    fn triangle_boxes(
+        &self,
+        mesh: &ClothMesh,
+        range: std::ops::Range<usize>,
+    ) -> (Vec<Vec3>, Vec<Vec3>) {
+        let (lo, hi) = (&self.lo, &self.hi);
+        mesh.triangles[range]
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| i as usize);
+                (lo[a].min(lo[b]).min(lo[c]), hi[a].max(hi[b]).max(hi[c]))
             })
-        };
-        // Edge-edge: every two edges whose boxes come within h, sharing no vertex, not exempt,
-        // that can come within h of each other and were not at rest; each pair once, the lower
-        // edge first.
-        let edge_edge = || {
-            edge_bvh.collect(edge_bvh, h, true, |e, f| {
-                let (e, f) = (e.min(f), e.max(f));
-                let [a, b] = edges[e as usize].map(|i| i as usize);
-                let [c, d] = edges[f as usize].map(|i| i as usize);
-                if c == a || c == b || d == a || d == b {
-                    return None;
-                }
-                if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32]) {
-                    return None;
-                }
-                let [pa, pb, pc, pd] = [a, b, c, d].map(|k| x.get(k));
-                let (s, u) = closest_on_segments(pa, pb, pc, pd);
-                let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
-                if gap > h + reach[a].max(reach[b]) + reach[c].max(reach[d]) {
-                    return None;
-                }
-                let r = [a, b, c, d].map(|i| mesh.rest[i]);
-                let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
-                if (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length() < h {
-                    return None;
-                }
-                Some(Pair {
-                    a: e,
-                    b: f,
-                    apart: gap,
-                })
+            .unzip()
+    }
+
+    /// The boxes of edges `range`: their ends' boxes together.
+    fn edge_boxes(
+        &self,
+        mesh: &ClothMesh,
+        range: std::ops::Range<usize>,
+    ) -> (Vec<Vec3>, Vec<Vec3>) {
+        let (lo, hi) = (&self.lo, &self.hi);
+        mesh.edges[range]
+            .iter()
+            .map(|&[a, b]| {
+                let (a, b) = (a as usize, b as usize);
+                (lo[a].min(lo[b]), hi[a].max(hi[b]))
             })
-        };
-        (self.vertex_triangle, self.edge_edge) = both(pooled, vertex_triangle, edge_edge);
+            .unzip()
+    }
+
+    /// Widens the boxes of the few particles `out` that left theirs to hold their start and end
+    /// positions less `shift` (m), and adds the candidate pairs that widening brings in: the
+    /// lists then hold as a rebuild's would, at a fraction of its cost.
+    fn repair(
+        &mut self,
+        mesh: &ClothMesh,
+        x: &Soa,
+        exempt: &ExemptPairs,
+        shift: Vec3,
+        out: &[u32],
+    ) {
+        self.repairs += 1;
+        self.repaired += out.len();
+        let h = self.thickness;
+        let half_skin = Vec3::splat(0.5 * self.skin);
+        for &k in out {
+            let k = k as usize;
+            let (a, b) = (self.start.get(k) - shift, x.get(k) - shift);
+            self.lo[k] = self.lo[k].min(a.min(b) - half_skin);
+            self.hi[k] = self.hi[k].max(a.max(b) + half_skin);
+            let p = self.built.get(k);
+            self.reach[k] = (p - self.lo[k]).max(self.hi[k] - p).length();
+            self.vertex_bvh.lo[k] = self.lo[k];
+            self.vertex_bvh.hi[k] = self.hi[k];
+        }
+        // The triangles and edges of those particles, each once.
+        let mut triangles: Vec<u32> = out
+            .iter()
+            .flat_map(|&k| mesh.triangles_of(k as usize).iter().copied())
+            .collect();
+        triangles.sort_unstable();
+        triangles.dedup();
+        let mut edges: Vec<u32> = out
+            .iter()
+            .flat_map(|&k| {
+                let k = k as usize;
+                self.vertex_edges[self.edge_start[k] as usize..self.edge_start[k + 1] as usize]
+                    .iter()
+                    .copied()
+            })
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        for &t in &triangles {
+            let (lo, hi) = self.triangle_boxes(mesh, t as usize..t as usize + 1);
+            (self.bvh.lo[t as usize], self.bvh.hi[t as usize]) = (lo[0], hi[0]);
+        }
+        for &e in &edges {
+            let (lo, hi) = self.edge_boxes(mesh, e as usize..e as usize + 1);
+            (self.edge_bvh.lo[e as usize], self.edge_bvh.hi[e as usize]) = (lo[0], hi[0]);
+        }
+        self.bvh.refit();
+        self.vertex_bvh.refit();
+        self.edge_bvh.refit();
+        let filter = self.filter(mesh, exempt);
+        let grow = Vec3::splat(h);
+        let mut vertex_triangle = Vec::new();
+        for &v in out {
+            let (lo, hi) = (self.lo[v as usize] - grow, self.hi[v as usize] + grow);
+            self.bvh.query(lo, hi, |t| {
+                vertex_triangle.extend(filter.vertex_triangle(v, t))
+            });
+        }
+        for &t in &triangles {
+            let (lo, hi) = (
+                self.bvh.lo[t as usize] - grow,
+                self.bvh.hi[t as usize] + grow,
+            );
+            self.vertex_bvh.query(lo, hi, |v| {
+                vertex_triangle.extend(filter.vertex_triangle(v, t))
+            });
+        }
+        let mut edge_edge = Vec::new();
+        for &e in &edges {
+            let (lo, hi) = (
+                self.edge_bvh.lo[e as usize] - grow,
+                self.edge_bvh.hi[e as usize] + grow,
+            );
+            self.edge_bvh.query(lo, hi, |f| {
+                if f != e {
+                    edge_edge.extend(filter.edge_edge(e, f));
+                }
+            });
+        }
+        // Their distances are of the lists' build, not of the reference: none known.
+        for p in vertex_triangle.iter_mut().chain(edge_edge.iter_mut()) {
+            p.apart = 0.0;
+        }
+        merge(&mut self.vertex_triangle, vertex_triangle);
+        merge(&mut self.edge_edge, edge_edge);
     }
 
     /// Resolves the proximities of the mesh cloth `mesh` at positions `x` (m), the side of each
@@ -613,20 +765,23 @@ impl MeshSelf {
         // Distances do not change when the whole cloth moves: the lists hold while the
         // particles stay in their boxes once a common move since they were built is taken
         // away (a falling cloth keeps its lists).
-        let mut shift = Vec3::ZERO;
-        if self.lists_valid && self.built.len() == n {
-            // The middle of the range of the moves, along each axis.
-            let (mut lo, mut hi) = (Vec3::splat(Real::INFINITY), Vec3::splat(-Real::INFINITY));
-            for k in 0..n {
-                let d = x.get(k) - self.built.get(k);
-                lo = lo.min(d);
-                hi = hi.max(d);
-            }
-            shift = 0.5 * (lo + hi);
-        }
-        if !self.lists_hold(x, shift) {
+        let valid = self.lists_valid && self.lo.len() == n && self.built.len() == n;
+        let shift = if valid {
+            middle_move(x, &self.built)
+        } else {
+            Vec3::ZERO
+        };
+        let out = if valid {
+            self.outside(x, shift)
+        } else {
+            Vec::new()
+        };
+        // A few particles out of their boxes: theirs widened; many, or boxes widened too often
+        // since the lists were built: rebuilt.
+        if !valid || out.len() > n / 64 || self.repaired + out.len() > n / 8 {
             self.rebuild(mesh, x, exempt);
-            shift = Vec3::ZERO;
+        } else if !out.is_empty() {
+            self.repair(mesh, x, exempt, shift, &out);
         }
         if self.vertex_triangle.is_empty() && self.edge_edge.is_empty() {
             return 0;
@@ -641,16 +796,24 @@ impl MeshSelf {
         };
         let h = self.thickness;
         let total = self.vertex_triangle.len() + self.edge_edge.len();
-        // How far each particle has been from where the lists were built (the common move
-        // taken away), during the step: a pair that was farther apart then than its
-        // distance plus both sides' moves cannot have come closer than its distance, nor
-        // crossed (the moves are straight lines).
+        // The pairs' distances (`apart`) are of the reference positions: those of the last
+        // build, measured again (at the end positions, as the first iteration tests every
+        // pair) once more than a quarter of the pairs came near.
+        let remeasure = self.near * 4 > total;
+        if remeasure {
+            self.reference.clone_from(x);
+        }
+        // How far each particle has been from the reference (a common move taken away),
+        // during the step: a pair that was farther apart there than its distance plus both
+        // sides' moves cannot have come closer than its distance, nor crossed (the moves are
+        // straight lines).
+        let shift = middle_move(x, &self.reference);
         {
-            let (x0, built) = (&self.start, &self.built);
+            let (x0, reference) = (&self.start, &self.reference);
             let xr = &*x;
             self.moved.clear();
             self.moved.extend((0..n).map(|k| {
-                let b = built.get(k) + shift;
+                let b = reference.get(k) + shift;
                 (x0.get(k) - b).length().max((xr.get(k) - b).length())
             }));
         }
@@ -662,33 +825,26 @@ impl MeshSelf {
             let (x0, x1) = (&self.start, &*x);
             let (vt, ee) = (&self.vertex_triangle, &self.edge_edge);
             let (triangles, edges) = (&mesh.triangles, &mesh.edges);
-            let particles = |i: usize| -> [u32; 4] {
-                if i < vt.len() {
-                    let p = vt[i];
-                    let [a, b, c] = triangles[p.b as usize];
-                    [p.a, a, b, c]
-                } else {
-                    let p = ee[i - vt.len()];
-                    let [a, b] = edges[p.a as usize];
-                    let [c, d] = edges[p.b as usize];
-                    [a, b, c, d]
-                }
-            };
+            let particles = |i: usize| particles_of(vt, ee, triangles, edges, i);
             let moved = &self.moved;
-            let near = |i: usize, q: [u32; 4]| may_touch(vt, ee, i, q, moved, h);
+            // Measuring every pair again: none passed over.
+            let measure = remeasure && iteration == 0;
+            let near = |i: usize, q: [u32; 4]| measure || may_touch(vt, ee, i, q, moved, h);
             // Every pair closer than its distance is pushed to it at the first iteration (a
             // cloth resting on itself is held where it lies); later iterations stop at a
             // shortfall of `SLACK`.
             let share = if iteration == 0 { 1.0 } else { 1.0 - SLACK };
-            let contact = |i: usize| -> Option<Push> {
+            // A candidate's push, if any, and its distance (at least) if it was tested.
+            let contact = |i: usize| -> (Option<Push>, Option<Real>) {
                 let q = particles(i);
-                if !near(i, q) {
-                    None
+                let (push, apart) = if !near(i, q) {
+                    return (None, None);
                 } else if i < vt.len() {
                     vertex_triangle(x0, x1, q, h, h * share, im)
                 } else {
                     edge_edge(x0, x1, q, h, h * share, im)
-                }
+                };
+                (push, Some(apart))
             };
             self.pushes.clear();
             let active = &self.active;
@@ -700,16 +856,51 @@ impl MeshSelf {
                     active[j] as usize
                 }
             };
-            if crate::exec::use_pool(tested) {
-                self.pushes.par_extend(
-                    (0..tested)
+            let pooled = crate::exec::use_pool(tested);
+            if measure {
+                // Every pair's distance kept, as its distance at the new reference.
+                let results: Vec<(Option<Push>, Option<Real>)> = if pooled {
+                    (0..total)
                         .into_par_iter()
                         .with_min_len(512)
-                        .filter_map(|j| contact(candidate(j))),
-                );
+                        .map(contact)
+                        .collect()
+                } else {
+                    (0..total).map(contact).collect()
+                };
+                let (vt_len, pushes) = (self.vertex_triangle.len(), &mut self.pushes);
+                for (i, (push, apart)) in results.into_iter().enumerate() {
+                    let pair = if i < vt_len {
+                        &mut self.vertex_triangle[i]
+                    } else {
+                        &mut self.edge_edge[i - vt_len]
+                    };
+                    pair.apart = apart.unwrap_or(0.0);
+                    pushes.extend(push);
+                }
+                self.near = 0;
             } else {
-                self.pushes
-                    .extend((0..tested).filter_map(|j| contact(candidate(j))));
+                let near_count = std::sync::atomic::AtomicUsize::new(0);
+                let tally = |(push, apart): (Option<Push>, Option<Real>)| {
+                    if iteration == 0 && apart.is_some() {
+                        near_count.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    }
+                    push
+                };
+                if pooled {
+                    self.pushes.par_extend(
+                        (0..tested)
+                            .into_par_iter()
+                            .with_min_len(512)
+                            .filter_map(|j| tally(contact(candidate(j)))),
+                    );
+                } else {
+                    self.pushes
+                        .extend((0..tested).filter_map(|j| tally(contact(candidate(j)))));
+                }
+                if iteration == 0 {
+                    self.near = near_count.into_inner();
+                }
             }
             if self.pushes.is_empty() {
                 break;
@@ -751,7 +942,7 @@ impl MeshSelf {
                 largest_move = largest_move.max(self.sum[k].length());
                 x.set(k, p);
                 self.sum[k] = Vec3::ZERO;
-                let b = self.built.get(k) + shift;
+                let b = self.reference.get(k) + shift;
                 self.moved[k] = (self.start.get(k) - b).length().max((p - b).length());
             }
             // After the first iteration, every pair is short of `h` by at most the largest
@@ -769,11 +960,12 @@ impl MeshSelf {
             // The next iteration's candidates: those with a particle moved (`count` > 0) that
             // may now be within `h`.
             let (count, moved) = (&self.count, &self.moved);
+            let (vt, ee) = (&self.vertex_triangle, &self.edge_edge);
             self.active.clear();
             self.active.extend(
                 (0..total)
                     .filter(|&i| {
-                        let q = particles(i);
+                        let q = particles_of(vt, ee, triangles, edges, i);
                         q.iter().any(|&k| count[k as usize] > 0)
                             && may_touch(vt, ee, i, q, moved, h)
                     })
@@ -788,6 +980,39 @@ impl MeshSelf {
     }
 }
 
+/// The particles of candidate `i` of the vertex-triangle pairs `vt` then the edge-edge pairs
+/// `ee`: the vertex and the triangle's corners, or the two edges' ends.
+#[inline]
+fn particles_of(
+    vt: &[Pair],
+    ee: &[Pair],
+    triangles: &[[u32; 3]],
+    edges: &[[u32; 2]],
+    i: usize,
+) -> [u32; 4] {
+    if i < vt.len() {
+        let p = vt[i];
+        let [a, b, c] = triangles[p.b as usize];
+        [p.a, a, b, c]
+    } else {
+        let p = ee[i - vt.len()];
+        let [a, b] = edges[p.a as usize];
+        let [c, d] = edges[p.b as usize];
+        [a, b, c, d]
+    }
+}
+
+/// The middle of the range of the moves from `from` to `x` (m) along each axis.
+fn middle_move(x: &Soa, from: &Soa) -> Vec3 {
+    let (mut lo, mut hi) = (Vec3::splat(Real::INFINITY), Vec3::splat(-Real::INFINITY));
+    for k in 0..x.len() {
+        let d = x.get(k) - from.get(k);
+        lo = lo.min(d);
+        hi = hi.max(d);
+    }
+    0.5 * (lo + hi)
+}
+
 /// Whether candidate `i` (of the vertex-triangle pairs `vt`, then the edge-edge pairs `ee`), of
 /// particles `q`, may be within `h` (m): its distance at the lists' build less the farthest its
 /// particles on each side have been since (`moved`, m) is below `h`.
@@ -798,6 +1023,108 @@ fn may_touch(vt: &[Pair], ee: &[Pair], i: usize, q: [u32; 4], moved: &[Real], h:
         vt[i].apart - m(q[0]) - m(q[1]).max(m(q[2])).max(m(q[3])) < h
     } else {
         ee[i - vt.len()].apart - m(q[0]).max(m(q[1])) - m(q[2]).max(m(q[3])) < h
+    }
+}
+
+/// The tests a candidate pair passes beyond its boxes', at positions `x` (where the lists were
+/// built).
+struct PairFilter<'a> {
+    mesh: &'a ClothMesh,
+    exempt: &'a ExemptPairs,
+    x: &'a Soa,
+    reach: &'a [Real],
+    h: Real,
+}
+
+impl PairFilter<'_> {
+    /// Vertex `v` and triangle `t`, unless `v` is a corner or an exempt partner of one, they
+    /// cannot come within `h` while their particles stay in their boxes, or they were within
+    /// `h` at rest.
+    fn vertex_triangle(&self, v: u32, t: u32) -> Option<Pair> {
+        let (mesh, h) = (self.mesh, self.h);
+        let tri = &mesh.triangles[t as usize];
+        let v = v as usize;
+        if tri.contains(&(v as u32)) || self.exempt.any(v, tri) {
+            return None;
+        }
+        let p = self.x.get(v);
+        let [a, b, c] = tri.map(|i| self.x.get(i as usize));
+        let w = closest_on_triangle(p, a, b, c);
+        let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
+        let [ra, rb, rc] = tri.map(|i| self.reach[i as usize]);
+        if d > h + self.reach[v] + ra.max(rb).max(rc) {
+            return None;
+        }
+        let [ra, rb, rc] = tri.map(|i| mesh.rest[i as usize]);
+        let rp = mesh.rest[v];
+        let wr = closest_on_triangle(rp, ra, rb, rc);
+        if (rp - (ra * wr[0] + rb * wr[1] + rc * wr[2])).length() < h {
+            return None;
+        }
+        Some(Pair {
+            a: v as u32,
+            b: t,
+            apart: d,
+        })
+    }
+
+    /// Edges `e` and `f` (either order; the pair names the lower first), unless they share a
+    /// particle or an exempt pair, cannot come within `h`, or were within `h` at rest.
+    fn edge_edge(&self, e: u32, f: u32) -> Option<Pair> {
+        let (mesh, h) = (self.mesh, self.h);
+        let (e, f) = (e.min(f), e.max(f));
+        let [a, b] = mesh.edges[e as usize].map(|i| i as usize);
+        let [c, d] = mesh.edges[f as usize].map(|i| i as usize);
+        if c == a || c == b || d == a || d == b {
+            return None;
+        }
+        let exempt = self.exempt;
+        if exempt.any(a, &[c as u32, d as u32]) || exempt.any(b, &[c as u32, d as u32]) {
+            return None;
+        }
+        let [pa, pb, pc, pd] = [a, b, c, d].map(|k| self.x.get(k));
+        let (s, u) = closest_on_segments(pa, pb, pc, pd);
+        let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
+        let r = self.reach;
+        if gap > h + r[a].max(r[b]) + r[c].max(r[d]) {
+            return None;
+        }
+        let r = [a, b, c, d].map(|i| mesh.rest[i]);
+        let (s, u) = closest_on_segments(r[0], r[1], r[2], r[3]);
+        if (r[0].lerp(r[1], s) - r[2].lerp(r[3], u)).length() < h {
+            return None;
+        }
+        Some(Pair {
+            a: e,
+            b: f,
+            apart: gap,
+        })
+    }
+}
+
+/// Adds `new` pairs to the sorted `list`, keeping it sorted by `(a, b)` and each pair once.
+fn merge(list: &mut Vec<Pair>, mut new: Vec<Pair>) {
+    if new.is_empty() {
+        return;
+    }
+    new.sort_unstable_by_key(|p| (p.a, p.b));
+    new.dedup_by_key(|p| (p.a, p.b));
+    let old = std::mem::take(list);
+    list.reserve(old.len() + new.len());
+    let (mut i, mut j) = (0, 0);
+    while i < old.len() || j < new.len() {
+        let take_old =
+            j == new.len() || (i < old.len() && (old[i].a, old[i].b) <= (new[j].a, new[j].b));
+        if take_old {
+            if j < new.len() && (old[i].a, old[i].b) == (new[j].a, new[j].b) {
+                j += 1;
+            }
+            list.push(old[i]);
+            i += 1;
+        } else {
+            list.push(new[j]);
+            j += 1;
+        }
     }
 }
 
@@ -828,7 +1155,8 @@ fn sign(v: Real) -> Real {
 
 /// The contact of vertex `q[0]` and triangle `q[1..4]` kept `target` (m) apart, from start
 /// positions `x0` and end positions `x1`; `im` gives inverse masses. `None` when they are on
-/// the right side, at least `reach` (m, at most `target`) apart.
+/// the right side, at least `reach` (m, at most `target`) apart. With it, a distance (m) they
+/// are at least apart at `x1`.
 #[inline]
 fn vertex_triangle(
     x0: &Soa,
@@ -837,22 +1165,23 @@ fn vertex_triangle(
     target: Real,
     reach: Real,
     im: impl Fn(u32) -> Real,
-) -> Option<Push> {
+) -> (Option<Push>, Real) {
     let [p1, a1, b1, c1] = q.map(|k| x1.get(k as usize));
     let normal1 = (b1 - a1).cross(c1 - a1);
     let f1 = (p1 - a1).dot(normal1);
     let [p0, a0, b0, c0] = q.map(|k| x0.get(k as usize));
     let f0 = (p0 - a0).dot((b0 - a0).cross(c0 - a0));
     let flipped = (f0 > 0.0 && f1 < 0.0) || (f0 < 0.0 && f1 > 0.0);
+    let length = normal1.length();
     // Outside the slab `reach` either side of the plane, on the side it started: apart.
-    if !flipped && f1.abs() >= reach * normal1.length() {
-        return None;
+    if !flipped && length > 0.0 && f1.abs() >= reach * length {
+        return (None, f1.abs() / length);
     }
     let w = closest_on_triangle(p1, a1, b1, c1);
     let closest = a1 * w[0] + b1 * w[1] + c1 * w[2];
     let d = (p1 - closest).length();
     if d >= reach && !flipped {
-        return None;
+        return (None, d);
     }
     let crossed = flipped
         && coplanar_time(
@@ -865,35 +1194,34 @@ fn vertex_triangle(
                 inside_triangle(p, a, b, c)
             },
         );
-    let length = normal1.length();
     let (direction, shortfall) = if crossed {
         if length == 0.0 {
-            return None;
+            return (None, d);
         }
         // Back to the start's side of the plane, `target` off it.
         let n = normal1 * (sign(f0) / length);
         (n, target - (p1 - a1).dot(n))
     } else {
         if d >= reach {
-            return None;
+            return (None, d);
         }
         let n = if d > 1e-12 * target {
             (p1 - closest) / d
         } else {
             let side = if f0 != 0.0 { sign(f0) } else { sign(f1) };
             if length == 0.0 || side == 0.0 {
-                return None;
+                return (None, d);
             }
             normal1 * (side / length)
         };
         (n, target - d)
     };
     let weight = [1.0, -w[0], -w[1], -w[2]];
-    push(q, weight, direction, shortfall, im)
+    (push(q, weight, direction, shortfall, im), d)
 }
 
-/// The contact of edges `q[0..2]` and `q[2..4]` kept `target` (m) apart (see
-/// [`vertex_triangle`]).
+/// The contact of edges `q[0..2]` and `q[2..4]` kept `target` (m) apart, and a distance they
+/// are at least apart at `x1` (see [`vertex_triangle`]).
 #[inline]
 fn edge_edge(
     x0: &Soa,
@@ -902,7 +1230,7 @@ fn edge_edge(
     target: Real,
     reach: Real,
     im: impl Fn(u32) -> Real,
-) -> Option<Push> {
+) -> (Option<Push>, Real) {
     let [a1, b1, c1, d1] = q.map(|k| x1.get(k as usize));
     let m1 = (b1 - a1).cross(d1 - c1);
     let f1 = (c1 - a1).dot(m1);
@@ -910,15 +1238,18 @@ fn edge_edge(
     let m0 = (b0 - a0).cross(d0 - c0);
     let f0 = (c0 - a0).dot(m0);
     let flipped = (f0 > 0.0 && f1 < 0.0) || (f0 < 0.0 && f1 > 0.0);
-    // The lines through them `reach` apart or more, on the sides they started: apart.
-    if !flipped && f1.abs() >= reach * m1.length() {
-        return None;
+    let length = m1.length();
+    let across = length > 1e-6 * (b1 - a1).length() * (d1 - c1).length();
+    // The lines through them (not near parallel) `reach` apart or more, on the sides they
+    // started: apart.
+    if !flipped && across && f1.abs() >= reach * length {
+        return (None, f1.abs() / length);
     }
     let (s, u) = closest_on_segments(a1, b1, c1, d1);
     let (p, r) = (a1.lerp(b1, s), c1.lerp(d1, u));
     let d = (p - r).length();
     if d >= reach && !flipped {
-        return None;
+        return (None, d);
     }
     let crossed = flipped
         && coplanar_time(
@@ -934,7 +1265,6 @@ fn edge_edge(
             },
         );
     // The first edge's side of the second: `(a - c) . m`, that is `-f`.
-    let length = m1.length();
     let (direction, shortfall) = if crossed {
         let n = if length > 1e-9 * (b1 - a1).length() * (d1 - c1).length() {
             m1 * (-sign(f0) / length)
@@ -942,28 +1272,28 @@ fn edge_edge(
             let apart = a0.lerp(b0, s) - c0.lerp(d0, u);
             let l = apart.length();
             if l == 0.0 {
-                return None;
+                return (None, d);
             }
             apart / l
         };
         (n, target - (p - r).dot(n))
     } else {
         if d >= reach {
-            return None;
+            return (None, d);
         }
         let n = if d > 1e-12 * target {
             (p - r) / d
         } else {
             let side = if f0 != 0.0 { -sign(f0) } else { -sign(f1) };
             if length == 0.0 || side == 0.0 {
-                return None;
+                return (None, d);
             }
             m1 * (side / length)
         };
         (n, target - d)
     };
     let weight = [1.0 - s, s, u - 1.0, -u];
-    push(q, weight, direction, shortfall, im)
+    (push(q, weight, direction, shortfall, im), d)
 }
 
 /// The push moving particles `q` by `weight[i] * im(q[i]) * lambda` along `direction`, with
@@ -1310,7 +1640,8 @@ mod tests {
         assert!(apart.length() >= 0.002 * (1.0 - 2.0 * SLACK), "{apart}");
     }
 
-    /// The hierarchy finds every candidate pair a test of all pairs finds.
+    /// The hierarchies find every candidate pair a test of all pairs finds, after a build and
+    /// after a few particles' boxes were widened.
     #[test]
     fn the_broad_phase_misses_no_pair() {
         // A crumpled 9 x 9 sheet of 1 cm edges, its particles moved up to 8 mm, 3 mm thick.
@@ -1355,12 +1686,45 @@ mod tests {
         let mut contact = MeshSelf::new(&mesh, h);
         contact.begin_step(&start);
         contact.rebuild(&mesh, &end, &ExemptPairs::default());
+        let check = |contact: &MeshSelf| {
+            let [vt, ee] = every_pair(contact, &mesh);
+            let found = |l: &[Pair]| l.iter().map(|p| (p.a, p.b)).collect::<Vec<_>>();
+            assert!(
+                vt.len() > 100 && ee.len() > 100,
+                "{} {}",
+                vt.len(),
+                ee.len()
+            );
+            assert_eq!(found(&contact.vertex_triangle), vt);
+            assert_eq!(found(&contact.edge_edge), ee);
+        };
+        check(&contact);
+        // A few particles leave their boxes: theirs are widened, and the lists are again every
+        // pair a test of all pairs finds.
+        let mut moved = end.clone();
+        for k in [3, 40, 41, 77] {
+            moved.set(k, end.get(k) + Vec3::new(0.004, -0.006, 0.002));
+        }
+        let out = contact.outside(&moved, Vec3::ZERO);
+        assert_eq!(out, [3, 40, 41, 77]);
+        contact.begin_step(&end);
+        contact.repair(&mesh, &moved, &ExemptPairs::default(), Vec3::ZERO, &out);
+        assert!(contact.outside(&moved, Vec3::ZERO).is_empty());
+        check(&contact);
+    }
+
+    /// Every candidate pair of `contact`'s boxes, by testing all pairs: boxes within `h`,
+    /// distance where the lists were built within `h` and the particles' reaches, not within
+    /// `h` at rest.
+    fn every_pair(contact: &MeshSelf, mesh: &ClothMesh) -> [Vec<(u32, u32)>; 2] {
+        let h = contact.thickness;
+        let x = &contact.built;
         let meet = |a: (Vec3, Vec3), b: (Vec3, Vec3)| {
             !((a.0 - Vec3::splat(h)).cmpgt(b.1).any() || b.0.cmpgt(a.1 + Vec3::splat(h)).any())
         };
         let (lo, hi) = (&contact.lo, &contact.hi);
         let reach = |k: u32| {
-            let (k, p) = (k as usize, end.get(k as usize));
+            let (k, p) = (k as usize, x.get(k as usize));
             (p - lo[k]).max(hi[k] - p).length()
         };
         let span = |ks: &[u32]| {
@@ -1382,8 +1746,8 @@ mod tests {
                 if tri.contains(&v) || !meet(span(&[v]), span(tri)) {
                     continue;
                 }
-                let [a, b, c] = tri.map(|k| end.get(k as usize));
-                let p = end.get(v as usize);
+                let [a, b, c] = tri.map(|k| x.get(k as usize));
+                let p = x.get(v as usize);
                 let w = closest_on_triangle(p, a, b, c);
                 let d = (p - (a * w[0] + b * w[1] + c * w[2])).length();
                 let r = tri.map(reach);
@@ -1403,7 +1767,7 @@ mod tests {
                 {
                     continue;
                 }
-                let [pa, pb, pc, pd] = [a, b, c, d].map(|k| end.get(k as usize));
+                let [pa, pb, pc, pd] = [a, b, c, d].map(|k| x.get(k as usize));
                 let (s, u) = closest_on_segments(pa, pb, pc, pd);
                 let gap = (pa.lerp(pb, s) - pc.lerp(pd, u)).length();
                 let r = [a, b, c, d].map(|k| mesh.rest[k as usize]);
@@ -1414,15 +1778,7 @@ mod tests {
                 }
             }
         }
-        let found = |l: &[Pair]| l.iter().map(|p| (p.a, p.b)).collect::<Vec<_>>();
-        assert!(
-            vt.len() > 100 && ee.len() > 100,
-            "{} {}",
-            vt.len(),
-            ee.len()
-        );
-        assert_eq!(found(&contact.vertex_triangle), vt);
-        assert_eq!(found(&contact.edge_edge), ee);
+        [vt, ee]
     }
 
     #[test]
