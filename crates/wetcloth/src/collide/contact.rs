@@ -224,14 +224,19 @@ fn resolve_deforming(
     (out, true, work)
 }
 
+/// How far (in particle radii) [`project`] searches a mesh for the surface a particle must
+/// leave.
+const PROJECT_REACH: Real = 16.0;
+
 /// Pushes `x` out of every collider along the normal only (after position corrections such as
-/// self-collision, which must not leave a particle inside a collider). A mesh is searched only
-/// within `radius` of `x`: the corrections start from particles outside every collider and
-/// move them by less than that.
+/// self-collision, which must not leave a particle inside a collider). A mesh is searched
+/// within [`PROJECT_REACH`] radii of `x`, not one: a mesh cloth's self-contact may push a
+/// particle deeper into a collider than its radius (a sleeve pinched between arm and
+/// shoulder), and the surface it has to leave is then farther than that.
 #[inline]
 pub fn project(colliders: &[Collider], mut x: Vec3, radius: Real) -> Vec3 {
     for c in colliders {
-        if let Some((d, n)) = c.distance_within(x, radius)
+        if let Some((d, n)) = c.distance_within(x, PROJECT_REACH * radius)
             && d < radius
         {
             x += n * (radius - d);
