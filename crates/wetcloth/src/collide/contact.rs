@@ -230,7 +230,7 @@ const PROJECT_REACH: Real = 16.0;
 
 /// Pushes `x` out of every collider along the normal only (after position corrections such as
 /// self-collision, which must not leave a particle inside a collider). A mesh is searched
-/// within [`PROJECT_REACH`] radii of `x`, not one: a mesh cloth's self-contact may push a
+/// within sixteen radii of `x`, not one: a mesh cloth's self-contact may push a
 /// particle deeper into a collider than its radius (a sleeve pinched between arm and
 /// shoulder), and the surface it has to leave is then farther than that.
 #[inline]
