@@ -25,6 +25,7 @@
 //! (eq. 3.4-3.5, normal force and Coulomb friction on the move), and the velocity is what the
 //! corrected move implies.
 
+use super::implicit::{Constraint, Surface, contact_constraint, landing_constraint};
 use super::sparse::{BlockCsr, CgScratch, Preconditioner, pcg};
 use super::verlet_mesh::{pressure_per_pascal, resolve_contacts};
 use super::{Air, Fused};
@@ -70,6 +71,17 @@ pub(crate) struct ImplicitMesh {
     /// The pressure force of the step, N (for the energy audit's count of its work).
     pressure: Soa,
     fixed: Vec<bool>,
+    /// Which particles a hand holds this step.
+    hand: Vec<bool>,
+    /// Each particle's contact in the solve.
+    contacts: Vec<Contact>,
+    /// Each sliding contact's normal, zero elsewhere (the solve's filter).
+    normals: Vec<Vec3>,
+    /// The velocities the constraints fix (m/s): a hand's, a held contact's, a slide's along
+    /// its normal; zero elsewhere.
+    known: Soa,
+    /// The colliders over the step (empty where none moves).
+    surfaces: Vec<Surface>,
     /// Scratch kept between steps (a step allocates none): the free unknowns, a pressure's
     /// right-hand side, the coasting positions and their measures, the new positions.
     free: Soa,
@@ -87,6 +99,36 @@ const TOLERANCE_CONVERGED: Real = 1e-8;
 const TOLERANCE_INTERACTIVE: Real = 1e-3;
 /// Most CG iterations of one solve.
 const MAX_ITERATIONS: usize = 2000;
+
+/// Most solves of one step while its contacts change (as the grid's step).
+const MAX_CONTACT_SOLVES: usize = 4;
+
+/// A particle's contact in the solve (thesis eq. 3.4-3.5 inside it, as the grid's step has
+/// them): `n` the surface's outward unit normal, `vn` the normal velocity that lands the
+/// particle on it (m/s), `mu` the friction coefficient, `u` the surface's velocity (m/s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Contact {
+    /// No contact.
+    Free,
+    /// Held by static friction: its velocity is `n vn` plus the surface's tangential velocity.
+    Stick {
+        n: Vec3,
+        vn: Real,
+        mu: Real,
+        u: Vec3,
+    },
+    /// Sliding: its normal velocity is `vn`, and kinetic friction `kinetic` (N, `mu` times the
+    /// normal force of the solve before) acts along `dir`, the direction of the force that held
+    /// it when it left the friction cone (against the slide).
+    Slide {
+        n: Vec3,
+        vn: Real,
+        mu: Real,
+        u: Vec3,
+        dir: Vec3,
+        kinetic: Real,
+    },
+}
 
 /// Sets every vector of `v` to zero.
 fn zero(v: &mut Soa) {
@@ -174,6 +216,11 @@ impl ImplicitMesh {
             coast_measures: crate::measure::Measures::for_layout(model.layout(), true),
             next: Soa::zeros(n),
             fixed: vec![false; n],
+            hand: vec![false; n],
+            contacts: vec![Contact::Free; n],
+            normals: vec![Vec3::ZERO; n],
+            known: Soa::zeros(n),
+            surfaces: Vec::new(),
             total_iterations: 0,
         }
     }
@@ -205,7 +252,10 @@ impl ImplicitMesh {
             .map(|s| s.heap_bytes())
             .sum::<usize>()
             + self.coast_measures.heap_bytes()
-            + self.fixed.capacity()
+            + self.fixed.capacity() * 2
+            + self.contacts.capacity() * std::mem::size_of::<Contact>()
+            + self.normals.capacity() * 24
+            + self.known.heap_bytes()
     }
 
     /// The coasting positions `x + dt v` (m) into the scratch.
@@ -224,12 +274,175 @@ impl ImplicitMesh {
             rhs,
             x,
             &self.fixed,
+            if self.normals.iter().any(|&m| m != Vec3::ZERO) {
+                &self.normals
+            } else {
+                &[]
+            },
             tolerance,
             MAX_ITERATIONS,
             parallel,
             &mut self.cg,
         );
         self.total_iterations += iters as u64;
+    }
+
+    /// The solve's constraints from the hands and the contacts: the rows whose velocity is
+    /// known (`fixed`), the slides' normals, and the velocities they fix (`known`; a hand's
+    /// was set by the step, in `v`).
+    fn constrain(&mut self) {
+        for k in 0..self.contacts.len() {
+            let (fixed, normal, known) = match self.contacts[k] {
+                _ if self.hand[k] => (true, Vec3::ZERO, self.known.get(k)),
+                Contact::Free => (false, Vec3::ZERO, Vec3::ZERO),
+                Contact::Stick { n, vn, u, .. } => (true, Vec3::ZERO, n * vn + (u - n * n.dot(u))),
+                Contact::Slide { n, vn, .. } => (false, n, n * vn),
+            };
+            self.fixed[k] = fixed;
+            self.normals[k] = normal;
+            self.known.set(k, known);
+        }
+    }
+
+    /// The right-hand side of particle `k`'s row without the constraints, `M v + dt f` (N s).
+    fn row_rhs(&self, model: &Model, x: &Soa, prev: &Soa, dt: Real, k: usize) -> Vec3 {
+        let v0 = (x.get(k) - prev.get(k)) / dt;
+        v0 * model.mass(k) + self.force.get(k) * dt
+    }
+
+    /// The force the constraints put on particle `k` (N): the residual of its row.
+    fn residual(&self, model: &Model, x: &Soa, prev: &Soa, dt: Real, k: usize) -> Vec3 {
+        (self.a.row_times(k, &self.v) - self.row_rhs(model, x, prev, dt, k)) / dt
+    }
+
+    /// Solves the step's system with the current constraints into `v`, from the `v` given.
+    fn solve_velocities(
+        &mut self,
+        model: &Model,
+        x: &Soa,
+        prev: &Soa,
+        dt: Real,
+        tolerance: Real,
+        parallel: bool,
+    ) {
+        let n = model.len();
+        // The right-hand side M v + dt f, the slides' friction, the known velocities' columns
+        // moved over.
+        for k in 0..n {
+            let mut b = self.row_rhs(model, x, prev, dt, k);
+            if let Contact::Slide { dir, kinetic, .. } = self.contacts[k] {
+                b += dir * (kinetic * dt);
+            }
+            self.rhs.set(k, b);
+        }
+        let sliding = self.normals.iter().any(|&m| m != Vec3::ZERO);
+        if sliding || self.fixed.iter().any(|&f| f) {
+            for k in 0..n {
+                if self.fixed[k] {
+                    continue;
+                }
+                let mut c = Vec3::ZERO;
+                for s in self.a.start[k] as usize..self.a.start[k + 1] as usize {
+                    let j = self.a.col[s] as usize;
+                    if self.fixed[j] || self.normals[j] != Vec3::ZERO {
+                        c += self.a.val[s] * self.known.get(j);
+                    }
+                }
+                self.rhs.set(k, self.rhs.get(k) - c);
+            }
+        }
+        self.pre.refresh(&self.a, &self.fixed);
+        // The solve sees the known velocities as fixed; their columns are in the rhs, so the
+        // product is of the free unknowns only.
+        let mut free_v = std::mem::take(&mut self.free);
+        free_v.clone_from(&self.v);
+        for k in 0..n {
+            let m = self.normals[k];
+            if self.fixed[k] {
+                free_v.set(k, Vec3::ZERO);
+            } else if m != Vec3::ZERO {
+                let v = free_v.get(k);
+                free_v.set(k, v - m * m.dot(v));
+            }
+        }
+        let rhs = std::mem::take(&mut self.rhs);
+        self.solve(&rhs, &mut free_v, tolerance, parallel);
+        self.rhs = rhs;
+        for k in 0..n {
+            self.v.set(k, free_v.get(k) + self.known.get(k));
+        }
+        self.free = free_v;
+    }
+
+    /// The contacts after a solve: one that pulls goes free, a held one outside the friction
+    /// cone slides, a slide that friction reversed is held, and a free particle that would
+    /// end inside a collider lands held. Returns whether any changed.
+    fn update_contacts(&mut self, model: &Model, x: &Soa, prev: &Soa, dt: Real) -> bool {
+        let mut changed = false;
+        for k in 0..self.contacts.len() {
+            if self.hand[k] {
+                continue;
+            }
+            let next = match self.contacts[k] {
+                Contact::Free => {
+                    if model.colliders.is_empty() || model.exempt_collider(k).is_some() {
+                        continue;
+                    }
+                    let (p, v) = (x.get(k), self.v.get(k));
+                    match landing_constraint(model, &self.surfaces, k, p, p + v * dt, dt) {
+                        Some((Constraint::Stick { n, vn, mu, u }, _)) => {
+                            Contact::Stick { n, vn, mu, u }
+                        }
+                        _ => continue,
+                    }
+                }
+                Contact::Stick { n, vn, mu, u } => {
+                    let lambda = self.residual(model, x, prev, dt, k);
+                    let push = lambda.dot(n);
+                    let shear = lambda - n * push;
+                    if push < 0.0 {
+                        Contact::Free
+                    } else if shear.length() > mu * push {
+                        Contact::Slide {
+                            n,
+                            vn,
+                            mu,
+                            u,
+                            dir: shear.normalize(),
+                            kinetic: mu * push,
+                        }
+                    } else {
+                        continue;
+                    }
+                }
+                Contact::Slide {
+                    n, vn, mu, u, dir, ..
+                } => {
+                    let push = self.residual(model, x, prev, dt, k).dot(n);
+                    let v = self.v.get(k);
+                    let slip = (v - n * n.dot(v)) - (u - n * n.dot(u));
+                    if push < 0.0 {
+                        Contact::Free
+                    } else if slip.dot(dir) > 0.0 {
+                        Contact::Stick { n, vn, mu, u }
+                    } else {
+                        // The friction of the next solve from this one's normal force.
+                        self.contacts[k] = Contact::Slide {
+                            n,
+                            vn,
+                            mu,
+                            u,
+                            dir,
+                            kinetic: mu * push,
+                        };
+                        continue;
+                    }
+                }
+            };
+            self.contacts[k] = next;
+            changed = true;
+        }
+        changed
     }
 
     /// Assembles `M (1 + dt c) + dt^2 H` at positions `x`.
@@ -385,33 +598,36 @@ impl ImplicitMesh {
             self.a.val[slot] += DMat3::from_diagonal(Vec3::splat(t.stiffness * dt * dt));
         }
         // Hands: their particles' velocities are known.
-        self.fixed.fill(false);
+        self.hand.fill(false);
         for (k, target) in control.active() {
-            self.fixed[k] = true;
+            self.hand[k] = true;
             self.v.set(k, (target - x.get(k)) / dt);
+            self.known.set(k, (target - x.get(k)) / dt);
         }
-        // The right-hand side M v + dt f, with the known velocities' columns moved over.
         for k in 0..n {
-            let v0 = (x.get(k) - prev.get(k)) / dt;
-            self.rhs.set(k, v0 * model.mass(k) + self.force.get(k) * dt);
-            if !self.fixed[k] {
-                self.v.set(k, v0);
+            if !self.hand[k] {
+                self.v.set(k, (x.get(k) - prev.get(k)) / dt);
             }
         }
-        let known = self.fixed.iter().any(|&f| f);
-        if known {
-            for k in 0..n {
-                if self.fixed[k] {
-                    continue;
-                }
-                let mut c = Vec3::ZERO;
-                for s in self.a.start[k] as usize..self.a.start[k + 1] as usize {
-                    let j = self.a.col[s] as usize;
-                    if self.fixed[j] {
-                        c += self.a.val[s] * self.v.get(j);
-                    }
-                }
-                self.rhs.set(k, self.rhs.get(k) - c);
+        // Contacts: a particle touching a collider, or reaching one at its speed, starts held
+        // (the friction cone decides after the first solve).
+        Surface::of_step(model, fused.start, dt, &mut self.surfaces);
+        for k in 0..n {
+            self.contacts[k] = Contact::Free;
+            if self.hand[k] || model.colliders.is_empty() || model.exempt_collider(k).is_some() {
+                continue;
+            }
+            let c = contact_constraint(
+                model,
+                &self.surfaces,
+                k,
+                x.get(k),
+                self.v.get(k),
+                dt,
+                state.contact[k],
+            );
+            if let Constraint::Stick { n, vn, mu, u } = c {
+                self.contacts[k] = Contact::Stick { n, vn, mu, u };
             }
         }
         let budget = self.budget.unwrap_or_default();
@@ -419,137 +635,130 @@ impl ImplicitMesh {
             SolveBudget::Converged => TOLERANCE_CONVERGED,
             SolveBudget::Interactive => TOLERANCE_INTERACTIVE,
         };
-        self.pre.refresh(&self.a, &self.fixed);
-        // The solve sees the known velocities as fixed; their columns are in the rhs, so the
-        // product is of the free unknowns only.
-        let mut free_v = std::mem::take(&mut self.free);
-        free_v.clone_from(&self.v);
-        for k in 0..n {
-            if self.fixed[k] {
-                free_v.set(k, Vec3::ZERO);
-            }
-        }
-        let rhs = std::mem::take(&mut self.rhs);
-        self.solve(&rhs, &mut free_v, tolerance, parallel);
-        self.rhs = rhs;
-        for k in 0..n {
-            if !self.fixed[k] {
-                self.v.set(k, free_v.get(k));
-            }
-        }
-        self.free = free_v;
-        // The pockets' end-of-step pressures: solved by the air model from the coasting
-        // positions, then their force's response added by one more solve.
-        if pressure_now.is_none() && air.model.pockets().is_some() {
-            self.coast_at(x, dt);
-            self.coast_measures.keep_cells = true;
-            self.coast_measures.remeasure_mesh(
-                model.layout(),
-                &self.coast,
-                model.sticking,
-                model.radius,
-            );
-            air.model.solve_end_of_step(
-                air.params,
-                model,
-                &self.coast,
-                &self.coast_measures,
-                &control.held,
-            );
-            if let AirLoad::PerParticle(dp) = air.model.load(air.params) {
-                let mut rhs_p = std::mem::take(&mut self.rhs_p);
-                for k in 0..n {
-                    let f = if !self.fixed[k] && dp[k] != 0.0 {
-                        self.per_pascal.get(k) * (dp[k] * dt)
-                    } else {
-                        Vec3::ZERO
-                    };
-                    rhs_p.set(k, f);
-                    self.force
-                        .set(k, self.force.get(k) + self.per_pascal.get(k) * dp[k]);
-                    self.pressure
-                        .set(k, self.pressure.get(k) + self.per_pascal.get(k) * dp[k]);
-                }
-                let mut w = std::mem::take(&mut self.w);
-                zero(&mut w);
-                self.solve(&rhs_p, &mut w, tolerance, parallel);
-                self.w = w;
-                self.rhs_p = rhs_p;
-                for k in 0..n {
-                    if !self.fixed[k] {
-                        self.v.set(k, self.v.get(k) + self.w.get(k));
-                    }
-                }
-            }
-        }
-        // The end-of-step pressure: the response per pascal, then Boyle on the predicted volume.
-        if pressure_now.is_none()
-            && let Some(solve) = air.model.take_end_of_step()
-        {
-            let mut rhs_p = std::mem::take(&mut self.rhs_p);
-            for k in 0..n {
-                let f = if self.fixed[k] {
-                    Vec3::ZERO
-                } else {
-                    self.per_pascal.get(k) * dt
-                };
-                rhs_p.set(k, f);
-            }
-            let mut w = std::mem::take(&mut self.w);
-            zero(&mut w);
-            self.solve(&rhs_p, &mut w, tolerance, parallel);
-            self.w = w;
-            self.rhs_p = rhs_p;
-            let dp = match model.sticking {
-                Some(plane) => {
-                    let up = plane.up;
-                    let contact = up.dot(plane.point) + model.radius;
+        for pass in 0..MAX_CONTACT_SOLVES {
+            self.constrain();
+            self.solve_velocities(model, x, prev, dt, tolerance, parallel);
+            // The pressures at the step's end, solved once from the first solve (their force
+            // is then part of the right-hand side of any solve after it).
+            if pass == 0 {
+                // The pockets' end-of-step pressures: solved by the air model from the coasting
+                // positions, then their force's response added by one more solve.
+                if pressure_now.is_none() && air.model.pockets().is_some() {
                     self.coast_at(x, dt);
-                    self.coast_measures.keep_cells = false;
+                    self.coast_measures.keep_cells = true;
                     self.coast_measures.remeasure_mesh(
                         model.layout(),
                         &self.coast,
                         model.sticking,
                         model.radius,
                     );
-                    let (coast, measures) = (&self.coast, &self.coast_measures);
-                    // Each free particle ends `g_k + r_k dP` above contact (its coasting gap
-                    // plus its move per pascal along the normal), or on the surface if that is
-                    // below it: the volume is the coasting one plus the area times the change.
-                    let base = measures.totals().volume;
-                    let gap = |k: usize| up.dot(coast.get(k)) - contact;
-                    let pa = solve.atmosphere;
-                    let volume = |p: Real| {
-                        let (mut v, mut slope) = (base, 0.0);
+                    air.model.solve_end_of_step(
+                        air.params,
+                        model,
+                        &self.coast,
+                        &self.coast_measures,
+                        &control.held,
+                    );
+                    if let AirLoad::PerParticle(dp) = air.model.load(air.params) {
+                        let mut rhs_p = std::mem::take(&mut self.rhs_p);
                         for k in 0..n {
-                            if self.fixed[k] {
-                                continue;
-                            }
-                            let rate = dt * up.dot(self.w.get(k));
-                            let g = gap(k);
-                            let end = g + rate * (p - pa);
-                            if end > 0.0 {
-                                v += mesh.area[k] * (end - g);
-                                slope += mesh.area[k] * rate;
+                            let f = if !self.fixed[k] && dp[k] != 0.0 {
+                                self.per_pascal.get(k) * (dp[k] * dt)
                             } else {
-                                v -= mesh.area[k] * g;
+                                Vec3::ZERO
+                            };
+                            rhs_p.set(k, f);
+                            self.force
+                                .set(k, self.force.get(k) + self.per_pascal.get(k) * dp[k]);
+                            self.pressure
+                                .set(k, self.pressure.get(k) + self.per_pascal.get(k) * dp[k]);
+                        }
+                        let mut w = std::mem::take(&mut self.w);
+                        zero(&mut w);
+                        self.solve(&rhs_p, &mut w, tolerance, parallel);
+                        self.w = w;
+                        self.rhs_p = rhs_p;
+                        for k in 0..n {
+                            if !self.fixed[k] {
+                                self.v.set(k, self.v.get(k) + self.w.get(k));
                             }
                         }
-                        (v, slope)
+                    }
+                }
+                // The end-of-step pressure: the response per pascal, then Boyle on the predicted volume.
+                if pressure_now.is_none()
+                    && let Some(solve) = air.model.take_end_of_step()
+                {
+                    let mut rhs_p = std::mem::take(&mut self.rhs_p);
+                    for k in 0..n {
+                        let f = if self.fixed[k] {
+                            Vec3::ZERO
+                        } else {
+                            self.per_pascal.get(k) * dt
+                        };
+                        rhs_p.set(k, f);
+                    }
+                    let mut w = std::mem::take(&mut self.w);
+                    zero(&mut w);
+                    self.solve(&rhs_p, &mut w, tolerance, parallel);
+                    self.w = w;
+                    self.rhs_p = rhs_p;
+                    let dp = match model.sticking {
+                        Some(plane) => {
+                            let up = plane.up;
+                            let contact = up.dot(plane.point) + model.radius;
+                            self.coast_at(x, dt);
+                            self.coast_measures.keep_cells = false;
+                            self.coast_measures.remeasure_mesh(
+                                model.layout(),
+                                &self.coast,
+                                model.sticking,
+                                model.radius,
+                            );
+                            let (coast, measures) = (&self.coast, &self.coast_measures);
+                            // Each free particle ends `g_k + r_k dP` above contact (its coasting gap
+                            // plus its move per pascal along the normal), or on the surface if that is
+                            // below it: the volume is the coasting one plus the area times the change.
+                            let base = measures.totals().volume;
+                            let gap = |k: usize| up.dot(coast.get(k)) - contact;
+                            let pa = solve.atmosphere;
+                            let volume = |p: Real| {
+                                let (mut v, mut slope) = (base, 0.0);
+                                for k in 0..n {
+                                    if self.fixed[k] {
+                                        continue;
+                                    }
+                                    let rate = dt * up.dot(self.w.get(k));
+                                    let g = gap(k);
+                                    let end = g + rate * (p - pa);
+                                    if end > 0.0 {
+                                        v += mesh.area[k] * (end - g);
+                                        slope += mesh.area[k] * rate;
+                                    } else {
+                                        v -= mesh.area[k] * g;
+                                    }
+                                }
+                                (v, slope)
+                            };
+                            crate::air::bubble::solve_boyle(solve.trapped, pa, solve.start, volume)
+                                - pa
+                        }
+                        None => solve.start - solve.atmosphere,
                     };
-                    crate::air::bubble::solve_boyle(solve.trapped, pa, solve.start, volume) - pa
+                    air.model.set_applied_pressure(solve.atmosphere + dp);
+                    for k in 0..n {
+                        if !self.fixed[k] {
+                            self.v.set(k, self.v.get(k) + self.w.get(k) * dp);
+                        }
+                        self.force
+                            .set(k, self.force.get(k) + self.per_pascal.get(k) * dp);
+                        self.pressure
+                            .set(k, self.pressure.get(k) + self.per_pascal.get(k) * dp);
+                    }
                 }
-                None => solve.start - solve.atmosphere,
-            };
-            air.model.set_applied_pressure(solve.atmosphere + dp);
-            for k in 0..n {
-                if !self.fixed[k] {
-                    self.v.set(k, self.v.get(k) + self.w.get(k) * dp);
-                }
-                self.force
-                    .set(k, self.force.get(k) + self.per_pascal.get(k) * dp);
-                self.pressure
-                    .set(k, self.pressure.get(k) + self.per_pascal.get(k) * dp);
+            }
+            if pass + 1 == MAX_CONTACT_SOLVES || !self.update_contacts(model, x, prev, dt) {
+                break;
             }
         }
         // The hands' forces: the residual of their rows.
@@ -584,6 +793,19 @@ impl ImplicitMesh {
         }
         control.collider_work +=
             resolve_contacts(model, x, &mut next, &mut state.contact, &frames, dt * dt);
+        // The solve's contacts touch while the surface pushes; a moving surface works on the
+        // cloth it pushes and carries (the contact's impulse times the surface's velocity).
+        let mut surface_work = 0.0;
+        for k in 0..n {
+            if let Contact::Stick { n: normal, u, .. } | Contact::Slide { n: normal, u, .. } =
+                self.contacts[k]
+            {
+                let lambda = self.residual(model, x, prev, dt, k);
+                state.contact[k] |= lambda.dot(normal) > 0.0;
+                surface_work += (lambda * dt).dot(u).abs();
+            }
+        }
+        control.collider_work += (surface_work * 1e12).round() * 1e-12;
         for (k, target) in control.active() {
             next.set(k, target);
         }

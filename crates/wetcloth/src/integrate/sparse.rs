@@ -430,6 +430,11 @@ impl CgScratch {
 /// caller's, moved to `b`; their residual is ignored) by the preconditioned conjugate gradient,
 /// from the `x` given, to a residual of `tolerance` times the right-hand side's norm or
 /// `max_iterations`. Returns the iterations taken.
+///
+/// A row with a non-zero unit vector in `normals` (empty: none) is constrained along it
+/// (Baraff and Witkin's filter `I - n n^T`): its `x` must have no part along it (the part the
+/// constraint fixes is the caller's, its columns moved to `b`), and the solve leaves that part
+/// and its residual out.
 #[allow(clippy::too_many_arguments)] // the system, its unknowns and the CG's scratch
 pub(crate) fn pcg(
     a: &BlockCsr,
@@ -437,6 +442,7 @@ pub(crate) fn pcg(
     b: &Soa,
     x: &mut Soa,
     fixed: &[bool],
+    normals: &[Vec3],
     tolerance: Real,
     max_iterations: usize,
     parallel: bool,
@@ -449,6 +455,19 @@ pub(crate) fn pcg(
             *v = Soa::zeros(n);
         }
     }
+    let mask = |v: &mut Soa| {
+        for i in 0..n {
+            if fixed[i] {
+                v.set(i, Vec3::ZERO);
+            }
+        }
+        for (i, &m) in normals.iter().enumerate() {
+            if m != Vec3::ZERO {
+                let p = v.get(i);
+                v.set(i, p - m * m.dot(p));
+            }
+        }
+    };
     a.mul(x, ap, parallel);
     for i in 0..n {
         r.set(
@@ -460,13 +479,16 @@ pub(crate) fn pcg(
             },
         );
     }
-    let norm_b = dot(b, b, fixed).sqrt().max(1e-300);
-    let mask = |v: &mut Soa| {
-        for i in 0..n {
-            if fixed[i] {
-                v.set(i, Vec3::ZERO);
-            }
-        }
+    mask(r);
+    let norm_b = if normals.is_empty() {
+        dot(b, b, fixed).sqrt().max(1e-300)
+    } else {
+        let mut fb = std::mem::take(z);
+        fb.clone_from(b);
+        mask(&mut fb);
+        let norm = dot(&fb, &fb, fixed).sqrt().max(1e-300);
+        *z = fb;
+        norm
     };
     if dot(r, r, fixed).sqrt() <= tolerance * norm_b {
         return 0;
@@ -543,6 +565,7 @@ mod tests {
                 &b,
                 &mut x,
                 &fixed,
+                &[],
                 1e-10,
                 5000,
                 false,

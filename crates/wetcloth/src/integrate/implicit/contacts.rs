@@ -21,7 +21,7 @@ pub(super) const STOPPED_SPEED: Real = 1e-12;
 
 /// A particle's constraint in the solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) enum Constraint {
+pub(in crate::integrate) enum Constraint {
     /// Free.
     Free,
     /// Its velocity along the unit normal `n` is `vn` (m/s): a sliding contact, `mu` its
@@ -153,15 +153,15 @@ const DEFORM_VELOCITY_REACH: Real = 0.1;
 /// A collider as one step's contacts see it: where it is at the step's start (the collider
 /// itself if still) and, if it moves, where it is at both ends of the step.
 #[derive(Clone, Debug)]
-pub(super) struct Surface {
-    pub(super) collider: Collider,
-    pub(super) frames: Option<Frames>,
+pub(in crate::integrate) struct Surface {
+    pub(in crate::integrate) collider: Collider,
+    pub(in crate::integrate) frames: Option<Frames>,
 }
 
 impl Surface {
     /// The colliders of `model` over the step from `t` to `t + dt` (s); empty where none moves
     /// (the contacts then read `model.colliders` as they are).
-    pub(super) fn of_step(model: &Model, t: Real, dt: Real, out: &mut Vec<Surface>) {
+    pub(in crate::integrate) fn of_step(model: &Model, t: Real, dt: Real, out: &mut Vec<Surface>) {
         out.clear();
         if model.moving.is_empty() {
             return;
@@ -173,7 +173,7 @@ impl Surface {
     }
 
     /// The velocity (m/s) over the step of `dt` s of the surface point at `x` (zero if still).
-    pub(super) fn velocity(&self, x: Vec3, dt: Real) -> Vec3 {
+    pub(in crate::integrate) fn velocity(&self, x: Vec3, dt: Real) -> Vec3 {
         match &self.frames {
             Some(f) if f.sweep.is_some() => {
                 (f.carry(&self.collider, x, DEFORM_VELOCITY_REACH) - x) / dt
@@ -186,7 +186,12 @@ impl Surface {
     /// The contact query of a particle moving from `x` to `to` over the step: in the moving
     /// frame for a moving collider (see [`contact::resolve_moving`]), the normal in the world
     /// at the step's end.
-    pub(super) fn contact(&self, x: Vec3, to: Vec3, radius: Real) -> Option<(Real, Vec3)> {
+    pub(in crate::integrate) fn contact(
+        &self,
+        x: Vec3,
+        to: Vec3,
+        radius: Real,
+    ) -> Option<(Real, Vec3)> {
         match &self.frames {
             Some(f) if f.sweep.is_some() => f.contact(&self.collider, x, to, radius),
             Some(f) => {
@@ -248,7 +253,7 @@ pub(super) fn resolve_surfaces(
 /// Calls `each` with every collider of the step (`surfaces`, or the model's own when none
 /// moves) and its surface velocity at `x` (m/s).
 #[inline]
-pub(super) fn each_surface(
+pub(in crate::integrate) fn each_surface(
     model: &Model,
     surfaces: &[Surface],
     x: Vec3,
@@ -272,7 +277,7 @@ pub(super) fn each_surface(
 /// to the surface. On a moving collider the constraint moves with the surface: its normal
 /// velocity lands the particle on the surface where the surface is at the step's end, and
 /// static friction holds it to the surface's tangential velocity.
-pub(super) fn contact_constraint(
+pub(in crate::integrate) fn contact_constraint(
     model: &Model,
     surfaces: &[Surface],
     k: usize,
@@ -300,7 +305,7 @@ pub(super) fn contact_constraint(
 /// A contact held by static friction against a surface of normal `n` moving at `u` (m/s),
 /// `gap` (m) away at the step's start, friction coefficient `mu`.
 #[inline]
-pub(super) fn stick(n: Vec3, gap: Real, dt: Real, mu: Real, u: Vec3) -> Constraint {
+pub(in crate::integrate) fn stick(n: Vec3, gap: Real, dt: Real, mu: Real, u: Vec3) -> Constraint {
     if u == Vec3::ZERO {
         Constraint::Stick {
             n,
@@ -321,7 +326,7 @@ pub(super) fn stick(n: Vec3, gap: Real, dt: Real, mu: Real, u: Vec3) -> Constrai
 /// The contact constraint of a free particle moving from `x` to `to` in a step of `dt` s, if it
 /// would end inside a collider, and whether the move took it through the surface (not merely
 /// within its radius of it).
-pub(super) fn landing_constraint(
+pub(in crate::integrate) fn landing_constraint(
     model: &Model,
     surfaces: &[Surface],
     k: usize,

@@ -76,6 +76,10 @@ use crate::params::{PressureForce, SolveBudget};
 use crate::state::{Motion, Slide, State};
 use caches::*;
 use contacts::*;
+// The mesh's implicit step finds its contacts as this one does.
+pub(in crate::integrate) use contacts::{
+    Constraint, Surface, contact_constraint, landing_constraint,
+};
 use gas::*;
 use glam::DMat3;
 use matrix::*;
