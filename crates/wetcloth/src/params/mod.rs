@@ -259,8 +259,8 @@ impl SimConfig {
                     return Err(ConfigError::Invalid {
                         key: key("center"),
                         message: format!(
-                            "[{}, {}]: on a mesh cloth `center` has 3 components [x, y, z] \
-                             (m, scene coordinates at t = 0)",
+                            "on a mesh cloth `center` has 3 components [x, y, z] (m, scene \
+                             coordinates at t = 0), not the grid's [{}, {}]",
                             num(p.center[0]),
                             num(p.center[1])
                         ),
@@ -270,8 +270,8 @@ impl SimConfig {
                     return Err(ConfigError::Invalid {
                         key: key("center"),
                         message: format!(
-                            "{}: on the grid `center` has 2 components [x, z] (m from the \
-                             cloth's centre at rest)",
+                            "on the grid `center` has 2 components [x, z] (m from the cloth's \
+                             centre at rest), not a mesh's {}",
                             num3(point)
                         ),
                     });
@@ -294,11 +294,11 @@ impl SimConfig {
                     return Err(ConfigError::Invalid {
                         key: format!("air.pocket[{i}].center"),
                         message: format!(
-                            "{}: no particle of the cloth lies within `radius` = {} m of it at \
+                            "no particle of the cloth lies within `radius` = {} m of {} at \
                              t = 0 (the nearest is {} m away); on a mesh cloth `center` is a \
                              point of the scene at t = 0",
-                            num3(point),
                             num(p.radius),
+                            num3(point),
                             num(nearest.sqrt())
                         ),
                     });
