@@ -509,7 +509,7 @@ fn pockets_and_wetness_keys_parse_and_are_checked_at_their_place() {
         vec![PocketSeed {
             center: [0.0, 0.0],
             radius: 0.04,
-            amount: 50e-6
+            amount: 50e-6,
             point: None,
         }]
     );

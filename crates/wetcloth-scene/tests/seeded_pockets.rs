@@ -52,7 +52,7 @@ fn scene(
         std::fs::write(dir.join("flat.obj"), flat_obj(11, 0.2)).unwrap();
         "mesh = \"flat.obj\"\nposition = [0.0, 0.00075, 0.0]\n".to_string()
     } else {
-        format!("size = [0.2, 0.2]\nresolution = [11, 11]\nposition = [0.0, 0.00075, 0.0]\n")
+        "size = [0.2, 0.2]\nresolution = [11, 11]\nposition = [0.0, 0.00075, 0.0]\n".to_string()
     };
     let text = format!(
         "[cloth]\n{cloth}model = \"{model}\"\n\n[air]\nmodel = \"pockets\"\n\n\

@@ -290,7 +290,7 @@ impl SimConfig {
                     .iter()
                     .map(|&v| (v - point).length_squared())
                     .fold(Real::INFINITY, Real::min);
-                if !(nearest <= p.radius * p.radius) {
+                if nearest > p.radius * p.radius {
                     return Err(ConfigError::Invalid {
                         key: format!("air.pocket[{i}].center"),
                         message: format!(
