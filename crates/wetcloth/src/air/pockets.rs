@@ -1124,12 +1124,14 @@ impl Pockets {
 /// The cloth at t = 0 with each seeded pocket (`[[air.pocket]]`) holding its air at
 /// atmospheric pressure, at rest: `x` (m, the cloth's rest positions) with the cloth over the
 /// seeds lifted off the surface, along its normal, into a shallow spherical cap over each
-/// seed's *footprint*, a disc about the seed's centre.
+/// seed's *footprint*, a disc about the seed's centre: in the grid's rest plane, or on a mesh
+/// in the plane through the seed's centre across the mean normal of the surfaces under its
+/// particles (`air::seeds`), distances from the centre measured in that plane.
 ///
 /// The footprint is the seed's disc, widened where the amount needs a cap higher than
 /// [`SEED_BULGE`] times its radius: a cap of height `b R` over radius `R` (m) holds
 /// `pi R^3 b (3 + b^2) / 6` m^3, so 50 cm^3 widens a 4 cm disc to 6.8 cm (never closer than two
-/// particle spacings to the cloth's border). The cloth's meridians are stretched evenly (a
+/// particle spacings to the cloth's border, [`SeedLayout::room`]). The cloth's meridians are stretched evenly (a
 /// particle at rest distance `r` from the centre goes to arc length `r (1 + e)` from the cap's
 /// top, the footprint's rim staying where it is); at a bulge of 0.1 the stretch `e` is 0.7 %.
 /// A steeper cap does not stay: the seed's disc itself, 50 cm^3 under a 4 cm disc (a bulge of
