@@ -299,6 +299,7 @@ mod tests {
             center: [0.0, 0.0],
             radius: 0.06,
             amount: 1e-6,
+            point: None,
         });
         let sim = Simulation::new(c).unwrap();
         let ids = particle_pocket_ids(&sim).unwrap();

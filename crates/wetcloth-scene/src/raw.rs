@@ -153,7 +153,7 @@ struct RawAir {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPocket {
-    center: Arr<Real, 2>,
+    center: Spanned<Vec<Real>>,
     radius: Real,
     amount: Real,
 }
@@ -645,16 +645,39 @@ fn convert(
         set(&mut air.seal_wetness, a.seal_wetness);
         set(&mut air.permeability, a.permeability);
         set(&mut air.dry_permeability, a.dry_permeability);
-        air.pockets = a
-            .pocket
-            .unwrap_or_default()
-            .into_iter()
-            .map(|p| PocketSeed {
-                center: p.center.0,
+        // On a mesh cloth a seed's `center` is a point of the scene at t = 0; on the grid (either
+        // model) it is `[x, z]` from the cloth's centre at rest, as `[[cloth.paint]]`'s.
+        let on_mesh = cloth.mesh.is_some();
+        for (i, p) in a.pocket.unwrap_or_default().into_iter().enumerate() {
+            let c = p.center.get_ref();
+            let dims = if on_mesh { 3 } else { 2 };
+            if c.len() != dims {
+                return Err(SceneError::Invalid {
+                    at: cx.at(p.center.span()),
+                    key: format!("air.pocket[{i}].center"),
+                    value: cx.raw(&p.center.span()),
+                    message: if on_mesh {
+                        "on a mesh cloth `center` has 3 components [x, y, z] (m, scene \
+                         coordinates at t = 0)"
+                    } else {
+                        "on the grid `center` has 2 components [x, z] (m from the cloth's \
+                         centre at rest)"
+                    }
+                    .into(),
+                });
+            }
+            let (center, point) = if on_mesh {
+                ([c[0], c[2]], Some(Vec3::new(c[0], c[1], c[2])))
+            } else {
+                ([c[0], c[1]], None)
+            };
+            air.pockets.push(PocketSeed {
+                center,
                 radius: p.radius,
                 amount: p.amount,
-            })
-            .collect();
+                point,
+            });
+        }
     }
 
     // No `[[collider]]` at all means the ground (the thesis' table); `collider = []` means none.

@@ -199,12 +199,19 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     for p in &a.pockets {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[air.pocket]]");
-        let _ = writeln!(
-            o,
-            "center = [{}, {}]  # m, rest (x, z)",
-            f(p.center[0]),
-            f(p.center[1])
-        );
+        match p.point {
+            Some(c) => {
+                let _ = writeln!(o, "center = {}  # m, scene at t = 0", v3(c));
+            }
+            None => {
+                let _ = writeln!(
+                    o,
+                    "center = [{}, {}]  # m, rest (x, z)",
+                    f(p.center[0]),
+                    f(p.center[1])
+                );
+            }
+        }
         let _ = writeln!(o, "radius = {}  # m", f(p.radius));
         let _ = writeln!(o, "amount = {}  # m^3 at atmospheric pressure", f(p.amount));
     }

@@ -371,6 +371,7 @@ fn full_config() -> SimConfig {
         center: [0.0, 0.03],
         radius: 0.04,
         amount: 50e-6,
+        point: None,
     }];
     c.colliders.push(Collider::plane(
         Vec3::new(0.5, -1.0, 2.0),
@@ -508,7 +509,8 @@ fn pockets_and_wetness_keys_parse_and_are_checked_at_their_place() {
         vec![PocketSeed {
             center: [0.0, 0.0],
             radius: 0.04,
-            amount: 50e-6
+            amount: 50e-6,
+            point: None,
         }]
     );
     let (_, msg) = err("[air]\nmodel = \"bubbles\"\n");

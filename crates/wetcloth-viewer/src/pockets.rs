@@ -115,6 +115,7 @@ mod tests {
                 center: [x, 0.0],
                 radius: 0.04,
                 amount: 15e-6,
+                point: None,
             })
             .to_vec();
         c

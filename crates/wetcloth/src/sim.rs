@@ -153,10 +153,16 @@ impl Simulation {
                 model.contact_exempt[t.particle] = t.attachment.collider;
             }
         }
+        // The seeded pockets' particles; at rest, the cloth over them lifted to hold their air.
+        let seeds = crate::air::seeds::SeedLayout::new(&config, &model);
         let mut sim = Self {
             grab_of,
-            // At rest, the cloth over seeded pockets lifted to hold their air.
-            state: State::at_rest(crate::air::pockets::lift_seeds(&config.air, &model, rest)),
+            state: State::at_rest(crate::air::pockets::lift_seeds(
+                &config.air,
+                &model,
+                &seeds,
+                rest,
+            )),
             control,
             air: AirModel::Thesis(crate::air::Bubble::new(config.air.trapped_air)),
             integrator: IntegratorState::new(
@@ -190,7 +196,13 @@ impl Simulation {
                 message: e.to_string(),
             })?;
         // The air of the start: measured, then the model built on it.
-        sim.air = AirModel::new(&sim.config.air, &sim.model, &sim.state, &sim.measures);
+        sim.air = AirModel::new(
+            &sim.config.air,
+            &sim.model,
+            &sim.state,
+            &sim.measures,
+            &seeds.seed_of,
+        );
         if sim.air.bubble().is_some() {
             let volume = sim.measures.totals().volume;
             sim.air.finish_step(

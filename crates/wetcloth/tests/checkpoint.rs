@@ -84,6 +84,7 @@ fn pockets_scene() -> SimConfig {
         center: [0.0, 0.0],
         radius: 0.06,
         amount: 100e-6,
+        point: None,
     }];
     cfg
 }

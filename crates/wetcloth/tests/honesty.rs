@@ -327,6 +327,7 @@ fn many_seeded_pockets_start_at_once() {
                 center: [-0.15 + i as Real * d, -0.15 + j as Real * d],
                 radius: 0.001,
                 amount: 1e-9,
+                point: None,
             }
         })
         .collect();

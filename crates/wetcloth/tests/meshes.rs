@@ -607,6 +607,7 @@ fn two_triangle_mesh_behaves_like_its_plane_under_suction() {
             center: [0.03, 0.0],
             radius: 0.02,
             amount: 2e-6,
+            point: None,
         }];
         cfg.grabs = vec![wetcloth::GrabSpec::lift([7, 7], 0.01, 0.1, 0.004)];
         let mut sim = Simulation::new(cfg).unwrap();

@@ -79,6 +79,7 @@ fn seeded_pocket_under_wet_cloth_keeps_its_air_and_obeys_boyle() {
         center: [0.0, 0.0],
         radius: 0.04,
         amount,
+        point: None,
     }];
     let pa = cfg.air.atmospheric_pressure;
     let mut sim = Simulation::new(cfg).unwrap();
@@ -116,6 +117,7 @@ fn seeded_air_under_dry_cloth_is_gone_within_a_second() {
         center: [0.0, 0.0],
         radius: 0.04,
         amount: 50e-6,
+        point: None,
     }];
     let mut sim = Simulation::new(cfg).unwrap();
     run(&mut sim, 1.0, |_| {});
@@ -137,6 +139,7 @@ fn merging_pockets_conserve_air() {
             center: [x, 0.0],
             radius: 0.035,
             amount,
+            point: None,
         })
         .to_vec();
     cfg.grabs = vec![GrabSpec::lift([15, 15], 0.1, 0.5, 0.02)];
@@ -172,6 +175,7 @@ fn split_pocket_keeps_its_pressure() {
             center: [x, 0.0],
             radius: 0.035,
             amount: 20e-6,
+            point: None,
         })
         .to_vec();
     // Press the column x = 0 (i = 15) down over the pocket's width.
@@ -274,6 +278,7 @@ fn pockets_do_not_depend_on_the_thread_count() {
                     center: [x, 0.0],
                     radius: 0.04,
                     amount: 20e-6,
+                    point: None,
                 })
                 .to_vec();
             cfg.grabs = vec![GrabSpec::lift([20, 16], 0.0, 0.05, 0.01)];
@@ -311,6 +316,7 @@ fn surface_measure_on_a_plane_matches_eq_3_10() {
             center: [0.0, 0.0],
             radius: 0.03,
             amount: 5e-6,
+            point: None,
         }];
         cfg.grabs = vec![GrabSpec::lift([10, 10], 0.02, 0.1, 0.005)];
         cfg
@@ -383,6 +389,7 @@ fn pockets_with_the_implicit_integrator() {
         center: [0.0, 0.0],
         radius: 0.04,
         amount: 20e-6,
+        point: None,
     }];
     let pa = cfg.air.atmospheric_pressure;
     let mut sim = Simulation::new(cfg).unwrap();
@@ -567,6 +574,7 @@ fn a_seeded_pocket_starts_at_atmospheric_pressure_and_stays_one() {
         center: [0.0, 0.0],
         radius: 0.04,
         amount,
+        point: None,
     }];
     let pa = cfg.air.atmospheric_pressure;
     let mut sim = Simulation::new(cfg).unwrap();

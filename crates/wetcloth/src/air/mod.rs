@@ -7,6 +7,7 @@
 //! | `bubble.rs` | the thesis' single bubble, with its explicit or implicit pressure | 3.4 |
 //! | `leak.rs` | air through a lifted border | ch. 5 (future work) |
 //! | `pockets.rs` | several sealed pockets that form, merge, split, leak and open | ch. 5 (future work) |
+//! | `seeds.rs` | where the seeded pockets (`[[air.pocket]]`) lie on the grid or a mesh at t = 0 | fig. 1.3 |
 //!
 //! An air model answers two questions each step: what pressure acts on the cloth during the
 //! step (`AirModel::begin_step`, phase 2 of [`crate::Simulation::step`]), and what the air
@@ -19,6 +20,7 @@ pub mod gap;
 pub mod leak;
 pub mod pockets;
 pub(crate) mod region;
+pub(crate) mod seeds;
 pub(crate) mod solve;
 
 pub use boyle::{MIN_GAP, boyle_pressure};
@@ -81,12 +83,19 @@ pub enum AirModel {
 
 impl AirModel {
     /// The model the parameters ask for, for the cloth of `model` in `state` (measured in
-    /// `measures`, with cell volumes for the pockets model).
-    pub(crate) fn new(air: &AirParams, model: &Model, state: &State, measures: &Measures) -> Self {
+    /// `measures`, with cell volumes for the pockets model; each particle's seeded pocket in
+    /// `seed_of`, `air::seeds`).
+    pub(crate) fn new(
+        air: &AirParams,
+        model: &Model,
+        state: &State,
+        measures: &Measures,
+        seed_of: &[u32],
+    ) -> Self {
         match air.model {
             AirModelKind::Thesis => AirModel::Thesis(Bubble::new(air.trapped_air)),
             AirModelKind::Pockets => {
-                AirModel::Pockets(Box::new(Pockets::new(air, model, state, measures)))
+                AirModel::Pockets(Box::new(Pockets::new(air, model, state, measures, seed_of)))
             }
         }
     }

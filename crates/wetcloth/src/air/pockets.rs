@@ -49,6 +49,7 @@
 
 use super::boyle::MIN_GAP;
 use super::bubble::solve_boyle;
+use super::seeds::{SeedLayout, square};
 use super::{AirLoad, Timing};
 use crate::control::Control;
 use crate::math::{Real, Soa};
@@ -217,17 +218,20 @@ struct Regions {
 impl Pockets {
     /// The pockets of the cloth at t = 0 in `state`: sealed where it touches, pockets of the
     /// enclosed air at atmospheric pressure, and the seeded pockets of `air.pockets` holding
-    /// their amounts (at atmospheric pressure where [`lift_seeds`] shaped the cloth over them).
-    pub(crate) fn new(air: &AirParams, model: &Model, state: &State, measures: &Measures) -> Self {
-        let seed_of = match &model.grid {
-            Some(grid) => seeds_of(air, grid),
-            None => vec![NONE; model.len()],
-        };
-        Self::at(air, model, &state.x, measures, &seed_of)
+    /// their amounts (at atmospheric pressure where [`lift_seeds`] shaped the cloth over them),
+    /// each particle's seed in `seed_of` (`air::seeds`).
+    pub(crate) fn new(
+        air: &AirParams,
+        model: &Model,
+        state: &State,
+        measures: &Measures,
+        seed_of: &[u32],
+    ) -> Self {
+        Self::at(air, model, &state.x, measures, seed_of)
     }
 
     /// [`Pockets::new`] for the cloth at `x` (m), measured in `measures`, each particle's seed
-    /// in `seed_of` ([`seeds_of`]).
+    /// in `seed_of`.
     fn at(air: &AirParams, model: &Model, x: &Soa, measures: &Measures, seed_of: &[u32]) -> Self {
         let n = model.len();
         let cells = match model.layout() {
@@ -1117,33 +1121,17 @@ impl Pockets {
     }
 }
 
-/// Each particle's seed: the first disc of `air.pockets` holding it at rest, or [`NONE`]. Found
-/// once per particle: particles x seeds. (Asking again per seed cost seeds^2 x particles:
-/// 20 000 seeds took 30 s before the first step.)
-fn seeds_of(air: &AirParams, grid: &crate::model::Grid) -> Vec<u32> {
-    let rest = grid.rest_positions(crate::math::Vec3::ZERO);
-    (0..grid.len())
-        .map(|k| {
-            air.pockets
-                .iter()
-                .position(|s| {
-                    let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
-                    dx * dx + dz * dz <= s.radius * s.radius
-                })
-                .map_or(NONE, |s| s as u32)
-        })
-        .collect()
-}
-
 /// The cloth at t = 0 with each seeded pocket (`[[air.pocket]]`) holding its air at
 /// atmospheric pressure, at rest: `x` (m, the cloth's rest positions) with the cloth over the
 /// seeds lifted off the surface, along its normal, into a shallow spherical cap over each
-/// seed's *footprint*, a disc about the seed's centre.
+/// seed's *footprint*, a disc about the seed's centre: in the grid's rest plane, or on a mesh
+/// in the plane through the seed's centre across the mean normal of the surfaces under its
+/// particles (`air::seeds`), distances from the centre measured in that plane.
 ///
 /// The footprint is the seed's disc, widened where the amount needs a cap higher than
 /// [`SEED_BULGE`] times its radius: a cap of height `b R` over radius `R` (m) holds
 /// `pi R^3 b (3 + b^2) / 6` m^3, so 50 cm^3 widens a 4 cm disc to 6.8 cm (never closer than two
-/// particle spacings to the cloth's border). The cloth's meridians are stretched evenly (a
+/// particle spacings to the cloth's border, [`SeedLayout::room`]). The cloth's meridians are stretched evenly (a
 /// particle at rest distance `r` from the centre goes to arc length `r (1 + e)` from the cap's
 /// top, the footprint's rim staying where it is); at a bulge of 0.1 the stretch `e` is 0.7 %.
 /// A steeper cap does not stay: the seed's disc itself, 50 cm^3 under a 4 cm disc (a bulge of
@@ -1165,19 +1153,18 @@ fn seeds_of(air: &AirParams, grid: &crate::model::Grid) -> Vec<u32> {
 /// more room than their air (nothing is lowered). Seeds whose disc is open to the room, and
 /// every particle outside the footprints, stay where they are; without the pockets model or
 /// seeds, `x` is returned unchanged.
-pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
+pub(crate) fn lift_seeds(air: &AirParams, model: &Model, seeds: &SeedLayout, mut x: Soa) -> Soa {
     if air.model != crate::params::AirModelKind::Pockets || air.pockets.is_empty() {
         return x;
     }
-    let grid = model.grid();
-    let n = grid.len();
-    let seed_of = seeds_of(air, grid);
-    let mut measures = Measures::for_grid(grid, true);
+    let n = model.len();
+    let seed_of = &seeds.seed_of;
+    let mut measures = Measures::for_layout(model.layout(), true);
     let remeasure = |m: &mut Measures, x: &Soa| {
-        m.remeasure_all(grid, x, model.sticking, model.radius, None);
+        m.remeasure_layout(model.layout(), x, model.sticking, model.radius, None);
     };
     remeasure(&mut measures, &x);
-    let flat = Pockets::at(air, model, &x, &measures, &seed_of);
+    let flat = Pockets::at(air, model, &x, &measures, seed_of);
     // The seeds that make a sealed pocket (their air is kept), and their footprints' radii.
     let mut sealed = vec![false; air.pockets.len()];
     for k in 0..n {
@@ -1188,24 +1175,19 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
     if !sealed.iter().any(|&s| s) {
         return x;
     }
-    let (half_w, half_d) = (
-        0.5 * grid.dx * (grid.nx - 1) as Real,
-        0.5 * grid.dz * (grid.nz - 1) as Real,
-    );
-    let spacing = grid.dx.max(grid.dz);
     let footprint: Vec<Real> = air
         .pockets
         .iter()
-        .map(|s| {
+        .enumerate()
+        .map(|(d, s)| {
             let b = SEED_BULGE;
             let wide = (6.0 * s.amount / (std::f64::consts::PI * b * (3.0 + b * b))).cbrt();
-            let room = (half_w - s.center[0].abs()).min(half_d - s.center[1].abs()) - 2.0 * spacing;
-            s.radius.max(wide.min(room))
+            s.radius.max(wide.min(seeds.room(d)))
         })
         .collect();
     // Groups of sealed seeds whose footprints overlap (union-find, in seed order).
-    let seeds = air.pockets.len();
-    let mut group: Vec<usize> = (0..seeds).collect();
+    let seeds_len = air.pockets.len();
+    let mut group: Vec<usize> = (0..seeds_len).collect();
     fn root(g: &mut [usize], mut a: usize) -> usize {
         while g[a] != a {
             g[a] = g[g[a]];
@@ -1213,26 +1195,22 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
         }
         a
     }
-    for a in (0..seeds).filter(|&a| sealed[a]) {
-        for b in (a + 1..seeds).filter(|&b| sealed[b]) {
-            let (sa, sb) = (&air.pockets[a], &air.pockets[b]);
-            let (dx, dz) = (sa.center[0] - sb.center[0], sa.center[1] - sb.center[1]);
+    for a in (0..seeds_len).filter(|&a| sealed[a]) {
+        for b in (a + 1..seeds_len).filter(|&b| sealed[b]) {
             let reach = footprint[a] + footprint[b];
-            if dx * dx + dz * dz < reach * reach {
+            if square(seeds.between(a, b)) < reach * reach {
                 let (ra, rb) = (root(&mut group, a), root(&mut group, b));
                 group[ra.max(rb)] = ra.min(rb);
             }
         }
     }
-    let group: Vec<usize> = (0..seeds).map(|a| root(&mut group, a)).collect();
+    let group: Vec<usize> = (0..seeds_len).map(|a| root(&mut group, a)).collect();
     // Each particle's footprint (the one it lies deepest in), 0 outside all.
-    let rest = grid.rest_positions(crate::math::Vec3::ZERO);
     let mut disc = vec![NONE; n];
     let mut depth: Vec<Real> = vec![0.0; n];
     for k in 0..n {
-        for (d, s) in air.pockets.iter().enumerate().filter(|&(d, _)| sealed[d]) {
-            let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
-            let f = 1.0 - (dx * dx + dz * dz) / (footprint[d] * footprint[d]);
+        for d in (0..seeds_len).filter(|&d| sealed[d]) {
+            let f = 1.0 - square(seeds.offset(k, d)) / (footprint[d] * footprint[d]);
             if f > depth[k] {
                 depth[k] = f;
                 disc[k] = d as u32;
@@ -1249,15 +1227,26 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
             _ => flat.scratch.normal[k],
         })
         .collect();
+    // On a mesh, each footprint's plane: across the mean of its particles' lifting directions.
+    let mut across = vec![crate::math::Vec3::ZERO; seeds_len];
+    if seeds.on_mesh() {
+        for (i, &k) in moved.iter().enumerate() {
+            across[disc[k] as usize] += up[i];
+        }
+        for a in &mut across {
+            *a = a.normalize_or_zero();
+        }
+    }
     let base = x.clone();
     // Particle `k` (the `i`-th moved) on its footprint's cap of bulge `b`: the sphere of
     // radius `R (1 + b^2) / (2 b)` through the rim, the particle at polar angle
-    // `2 atan(b) r / R` from the top.
+    // `2 atan(b) r / R` from the top, `r` its distance from the centre across the surface's
+    // normal.
     let place = |x: &mut Soa, i: usize, k: usize, b: Real| {
         let d = disc[k] as usize;
-        let (s, radius) = (&air.pockets[d], footprint[d]);
-        let (dx, dz) = (rest.x[k] - s.center[0], rest.z[k] - s.center[1]);
-        let r = (dx * dx + dz * dz).sqrt();
+        let radius = footprint[d];
+        let offset = seeds.across(seeds.offset(k, d), across[d]);
+        let r = square(offset).sqrt();
         let sphere = radius * (1.0 + b * b) / (2.0 * b);
         let phi = 2.0 * b.atan() * r / radius;
         let half = (0.5 * phi).sin();
@@ -1267,20 +1256,21 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
         } else {
             0.0
         };
-        let shift = crate::math::Vec3::new(dx * inward, 0.0, dz * inward);
-        x.set(k, base.get(k) + shift + up[i] * height);
+        x.set(k, base.get(k) + offset * inward + up[i] * height);
     };
     // Per group (by its root seed): its air, the bracket (a bulge with too little room and
     // one with too much, if found yet), its bulge, and whether it is solved.
-    let mut target = vec![0.0; seeds];
-    for a in (0..seeds).filter(|&a| sealed[a]) {
+    let mut target = vec![0.0; seeds_len];
+    for a in (0..seeds_len).filter(|&a| sealed[a]) {
         target[group[a]] += air.pockets[a].amount;
     }
-    let mut lo: Vec<(Real, Real)> = vec![(0.0, 0.0); seeds];
-    let mut hi: Vec<Option<(Real, Real)>> = vec![None; seeds];
-    let mut bulge = vec![0.0; seeds];
-    let mut done: Vec<bool> = (0..seeds).map(|a| !sealed[a] || group[a] != a).collect();
-    let mut volume = vec![0.0; seeds];
+    let mut lo: Vec<(Real, Real)> = vec![(0.0, 0.0); seeds_len];
+    let mut hi: Vec<Option<(Real, Real)>> = vec![None; seeds_len];
+    let mut bulge = vec![0.0; seeds_len];
+    let mut done: Vec<bool> = (0..seeds_len)
+        .map(|a| !sealed[a] || group[a] != a)
+        .collect();
+    let mut volume = vec![0.0; seeds_len];
     let mut counted = Vec::new();
     for iteration in 0..=SEED_ITERATIONS {
         if done.iter().all(|&d| d) {
@@ -1296,7 +1286,7 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
         // The pockets the cloth makes now; each group's volume, the pockets its particles lie
         // in (each counted once).
         remeasure(&mut measures, &x);
-        let now = Pockets::at(air, model, &x, &measures, &seed_of);
+        let now = Pockets::at(air, model, &x, &measures, seed_of);
         volume.iter_mut().for_each(|v| *v = 0.0);
         counted.clear();
         counted.resize(now.pockets.len(), false);
@@ -1307,7 +1297,7 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, mut x: Soa) -> Soa {
                 volume[group[disc[k] as usize]] += now.pockets[q as usize].volume;
             }
         }
-        for a in 0..seeds {
+        for a in 0..seeds_len {
             if done[a] {
                 continue;
             }

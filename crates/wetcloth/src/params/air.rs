@@ -1,6 +1,6 @@
 //! `[air]`: the trapped air and how its pressure is solved.
 
-use crate::math::Real;
+use crate::math::{Real, Vec3};
 
 /// The trapped air (`[air]` in a scene file), thesis 3.4.
 #[derive(Clone, Debug, PartialEq)]
@@ -96,15 +96,21 @@ impl AirModelKind {
 /// start unsealed and hold `amount`, at rest at atmospheric pressure: the cloth over them starts
 /// lifted into a shallow cap (at most a tenth as high as wide, its footprint widened beyond
 /// `radius` where the amount needs more) whose measured gap volume is `amount`
-/// (`air::pockets::lift_seeds`).
+/// (`air::pockets::lift_seeds`). On the grid (either `[cloth] model`) the region is a disc in
+/// the cloth's rest coordinates; on a mesh cloth, a ball about `point`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PocketSeed {
-    /// Centre, m, as (x, z) from the cloth's centre at rest. Default (0, 0); each in [-1e3, 1e3].
+    /// Centre, m, as (x, z) from the cloth's centre at rest (the grid). Default (0, 0); each in
+    /// [-1e3, 1e3]. On a mesh cloth, `point`'s x and z (not used).
     pub center: [Real; 2],
-    /// Radius, m. Required; range (0, 1e3].
+    /// Radius, m: of the disc (grid) or the ball (mesh). Required; range (0, 1e3].
     pub radius: Real,
     /// Air, m^3 at atmospheric pressure. Required; range [0, 1e3].
     pub amount: Real,
+    /// On a mesh cloth: the seed's centre in scene coordinates at t = 0, m (a 3-component
+    /// `center`); the particles within `radius` of it at t = 0 are the seed's, and at least
+    /// one must be. Each component in [-1e4, 1e4]. `None` on the grid.
+    pub point: Option<Vec3>,
 }
 
 /// How the pressure difference becomes a force on each particle.

@@ -220,23 +220,7 @@ impl SimConfig {
         if let Some(d) = c.density {
             check_range("cloth.density", d, 1e-6, 1e3)?;
         }
-        if c.model == ClothModel::Membrane && c.mesh.is_none() && !self.air.pockets.is_empty() {
-            return Err(ConfigError::Invalid {
-                key: "air.pocket".into(),
-                message: "seeded pockets ([[air.pocket]]) take the springs model's grid; with \
-                          model = \"membrane\" the pockets form where the wet cloth seals"
-                    .into(),
-            });
-        }
         if let Some(m) = &c.mesh {
-            if !self.air.pockets.is_empty() {
-                return Err(ConfigError::Invalid {
-                    key: "air.pocket".into(),
-                    message: "seeded pockets ([[air.pocket]]) take the built-in grid; on a mesh \
-                              cloth the pockets form where the wet cloth seals"
-                        .into(),
-                });
-            }
             check_vec("cloth.rotation", m.rotation, -1e6, 1e6)?;
             check_open_low("cloth.scale", m.scale, 0.0, 1e4)?;
             let (triangles, from) = m.triangles();
@@ -265,10 +249,61 @@ impl SimConfig {
         check_range("air.dry_permeability", a.dry_permeability, 0.0, 1.0)?;
         for (i, p) in a.pockets.iter().enumerate() {
             let key = |k: &str| format!("air.pocket[{i}].{k}");
-            check_range(&key("center"), p.center[0], -1e3, 1e3)?;
-            check_range(&key("center"), p.center[1], -1e3, 1e3)?;
+            match (p.point, c.mesh.is_some()) {
+                (Some(point), true) => check_vec(&key("center"), point, -1e4, 1e4)?,
+                (None, false) => {
+                    check_range(&key("center"), p.center[0], -1e3, 1e3)?;
+                    check_range(&key("center"), p.center[1], -1e3, 1e3)?;
+                }
+                (None, true) => {
+                    return Err(ConfigError::Invalid {
+                        key: key("center"),
+                        message: format!(
+                            "on a mesh cloth `center` has 3 components [x, y, z] (m, scene \
+                             coordinates at t = 0), not the grid's [{}, {}]",
+                            num(p.center[0]),
+                            num(p.center[1])
+                        ),
+                    });
+                }
+                (Some(point), false) => {
+                    return Err(ConfigError::Invalid {
+                        key: key("center"),
+                        message: format!(
+                            "on the grid `center` has 2 components [x, z] (m from the cloth's \
+                             centre at rest), not a mesh's {}",
+                            num3(point)
+                        ),
+                    });
+                }
+            }
             check_open_low(&key("radius"), p.radius, 0.0, 1e3)?;
             check_range(&key("amount"), p.amount, 0.0, 1e3)?;
+        }
+        if let Some(m) = c.mesh.as_ref().filter(|_| !a.pockets.is_empty()) {
+            // On a mesh a seed is a ball about a point of the scene: one that misses the cloth
+            // (a centre at the wrong height, say) is refused rather than left out.
+            let placed = m.placed(c.position);
+            for (i, p) in a.pockets.iter().enumerate() {
+                let point = p.point.unwrap_or_default();
+                let nearest = placed
+                    .iter()
+                    .map(|&v| (v - point).length_squared())
+                    .fold(Real::INFINITY, Real::min);
+                if nearest > p.radius * p.radius {
+                    return Err(ConfigError::Invalid {
+                        key: format!("air.pocket[{i}].center"),
+                        message: format!(
+                            "no particle of the cloth lies within `radius` = {} m of {} at \
+                             t = 0 (the nearest is {} m away); on a mesh cloth `center` is a \
+                             point of the scene at t = 0",
+                            num(p.radius),
+                            num3(point),
+                            num(nearest.sqrt())
+                        ),
+                    });
+                }
+            }
         }
         if !a.pockets.is_empty() && a.model != AirModelKind::Pockets {
             return Err(ConfigError::Invalid {
