@@ -79,6 +79,16 @@ impl BlockCsr {
             .map(|k| r.start + k)
     }
 
+    /// Row `i` of `A x`.
+    #[inline]
+    pub fn row_times(&self, i: usize, x: &Soa) -> Vec3 {
+        let mut y = Vec3::ZERO;
+        for k in self.start[i] as usize..self.start[i + 1] as usize {
+            y += self.val[k] * x.get(self.col[k] as usize);
+        }
+        y
+    }
+
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         (self.start.capacity() + self.col.capacity() + self.diag.capacity()) * 4
@@ -113,9 +123,10 @@ struct Level {
     aggregate: Vec<u32>,
     /// For each block of the finer level's matrix, where it adds in `a.val`.
     galerkin: Vec<u32>,
-    /// Scratch: the restricted residual and the coarse correction.
+    /// Scratch: the restricted residual, the coarse correction, a sweep's.
     res: Vec<Vec3>,
     x: Vec<Vec3>,
+    work: Vec<Vec3>,
 }
 
 /// The preconditioner of a mesh system: an aggregation multigrid V-cycle (block Gauss-Seidel
@@ -130,6 +141,8 @@ pub(crate) struct Preconditioner {
     fixed: Vec<bool>,
     /// The coarse levels, finest first (none: block-Jacobi).
     levels: Vec<Level>,
+    /// Scratch of the finest level's sweeps.
+    work: Vec<Vec3>,
 }
 
 /// Smallest level aggregated further.
@@ -200,51 +213,120 @@ fn coarse_pattern(a: &BlockCsr, agg: &[u32], m: usize) -> (BlockCsr, Vec<u32>) {
     (c, galerkin)
 }
 
-/// `sum A_ik x_k` over the blocks `lo..hi` of `a`'s storage, in two interleaved sums (the
-/// blocks' products do not wait on one another).
+/// Rows of a smoothing block: a sweep runs over blocks of this many consecutive rows (on the
+/// pool when there is one), Gauss-Seidel within each block, each block taking the others'
+/// values from before the sweep (Jacobi between blocks). The blocks are fixed, so the bits do
+/// not depend on the thread count; a level of at most this many rows is swept exactly.
+const SWEEP_ROWS: usize = 512;
+
+/// `sum A_ik x_(k - offset)` over the blocks `lo..hi` of `a`'s storage, in two interleaved
+/// sums (the blocks' products do not wait on one another).
 #[inline(always)]
-fn blocks_times(a: &BlockCsr, lo: usize, hi: usize, x: &[Vec3]) -> Vec3 {
+fn blocks_times(a: &BlockCsr, lo: usize, hi: usize, x: &[Vec3], offset: usize) -> Vec3 {
     let (mut y0, mut y1) = (Vec3::ZERO, Vec3::ZERO);
     let (val, col) = (&a.val[lo..hi], &a.col[lo..hi]);
     let pairs = val.len() / 2;
     for k in 0..pairs {
-        y0 += val[2 * k] * x[col[2 * k] as usize];
-        y1 += val[2 * k + 1] * x[col[2 * k + 1] as usize];
+        y0 += val[2 * k] * x[col[2 * k] as usize - offset];
+        y1 += val[2 * k + 1] * x[col[2 * k + 1] as usize - offset];
     }
     if val.len() % 2 == 1 {
-        y0 += val[val.len() - 1] * x[col[col.len() - 1] as usize];
+        y0 += val[val.len() - 1] * x[col[col.len() - 1] as usize - offset];
     }
     y0 + y1
 }
 
-/// `x = (D + L)^-1 b`: a forward block Gauss-Seidel sweep from zero (the columns after the
-/// diagonal are still zero: only the lower blocks are read).
-fn forward_from_zero(a: &BlockCsr, inv: &[DMat3], b: &[Vec3], x: &mut [Vec3]) {
-    for i in 0..a.rows() {
-        let r = b[i] - blocks_times(a, a.start[i] as usize, a.diag[i] as usize, x);
-        x[i] = inv[i] * r;
+/// Where row `i`'s columns from `lo` on, and from `hi` on, start in `a`'s storage.
+#[inline(always)]
+fn split_row(a: &BlockCsr, i: usize, lo: usize, hi: usize) -> (usize, usize) {
+    let s = a.start[i] as usize;
+    let cols = &a.col[s..a.start[i + 1] as usize];
+    (
+        s + cols.partition_point(|&j| (j as usize) < lo),
+        s + cols.partition_point(|&j| (j as usize) < hi),
+    )
+}
+
+/// Runs `f(block, rows)` on each smoothing block of `x`, on the pool when `parallel`.
+fn by_blocks(x: &mut [Vec3], parallel: bool, f: impl Fn(usize, &mut [Vec3]) + Sync) {
+    if parallel && x.len() > SWEEP_ROWS {
+        x.par_chunks_mut(SWEEP_ROWS)
+            .enumerate()
+            .for_each(|(c, xs)| f(c * SWEEP_ROWS, xs));
+    } else {
+        x.chunks_mut(SWEEP_ROWS)
+            .enumerate()
+            .for_each(|(c, xs)| f(c * SWEEP_ROWS, xs));
     }
 }
 
-/// One block Gauss-Seidel sweep over the rows, forward or backward: each row's residual with
-/// the rows already swept, `x_i += D_i^-1 r_i`.
-fn sweep(a: &BlockCsr, inv: &[DMat3], b: &[Vec3], x: &mut [Vec3], forward: bool) {
-    let mut row = |i: usize| {
-        let r = b[i] - blocks_times(a, a.start[i] as usize, a.start[i + 1] as usize, x);
-        x[i] += inv[i] * r;
-    };
-    if forward {
-        (0..a.rows()).for_each(&mut row);
-    } else {
-        (0..a.rows()).rev().for_each(&mut row);
+/// `x = (D + L_b)^-1 b`, `L_b` the lower blocks inside each smoothing block: a forward sweep
+/// from zero (every other column is still zero).
+fn forward_from_zero(a: &BlockCsr, inv: &[DMat3], b: &[Vec3], x: &mut [Vec3], parallel: bool) {
+    by_blocks(x, parallel, |lo, xs| {
+        for l in 0..xs.len() {
+            let i = lo + l;
+            let (p, _) = split_row(a, i, lo, lo);
+            let r = b[i] - blocks_times(a, p, a.diag[i] as usize, xs, lo);
+            xs[l] = inv[i] * r;
+        }
+    });
+}
+
+/// Row `i`'s residual `b_i - (A x)_i` after [`forward_from_zero`]: minus the blocks it did not
+/// read (each row's own and lower in-block part it solved exactly).
+#[inline]
+fn residual_after_forward(a: &BlockCsr, i: usize, x: &[Vec3]) -> Vec3 {
+    let lo = i / SWEEP_ROWS * SWEEP_ROWS;
+    let (p, _) = split_row(a, i, lo, lo);
+    -(blocks_times(a, a.start[i] as usize, p, x, 0)
+        + blocks_times(a, a.diag[i] as usize + 1, a.start[i + 1] as usize, x, 0))
+}
+
+/// One block Gauss-Seidel sweep, forward or backward, in smoothing blocks: each row's residual
+/// with the rows of its block already swept and the other blocks' values from before the sweep
+/// (`old`, scratch), `x_i += D_i^-1 r_i`.
+fn sweep(
+    a: &BlockCsr,
+    inv: &[DMat3],
+    b: &[Vec3],
+    x: &mut [Vec3],
+    old: &mut Vec<Vec3>,
+    forward: bool,
+    parallel: bool,
+) {
+    if x.len() > SWEEP_ROWS {
+        old.clear();
+        old.extend_from_slice(x);
     }
+    let old = &old[..];
+    by_blocks(x, parallel, |lo, xs| {
+        let hi = lo + xs.len();
+        let row = |l: usize, xs: &mut [Vec3]| {
+            let i = lo + l;
+            let (s, e) = (a.start[i] as usize, a.start[i + 1] as usize);
+            let (p, q) = split_row(a, i, lo, hi);
+            let r = b[i]
+                - blocks_times(a, s, p, old, 0)
+                - blocks_times(a, p, q, xs, lo)
+                - blocks_times(a, q, e, old, 0);
+            xs[l] += inv[i] * r;
+        };
+        if forward {
+            (0..xs.len()).for_each(|l| row(l, xs));
+        } else {
+            (0..xs.len()).rev().for_each(|l| row(l, xs));
+        }
+    });
 }
 
 /// A V-cycle on the level whose matrix is `a` (inverse diagonal `inv`, its rows `skip` marks
-/// left out: their unknowns stay zero), right-hand side `b`, into `x`; `coarse[0]` is the next
-/// coarser level. A forward sweep from zero; the residual, `-U x` after it (each row's lower
-/// and diagonal part the sweep solved), restricted to the aggregates and the coarse correction
-/// added back; a backward sweep. Symmetric, as the conjugate gradient needs.
+/// left out: their unknowns stay zero), right-hand side `b`, into `x` (`work`: scratch);
+/// `coarse[0]` is the next coarser level. A forward sweep from zero; the residual after it
+/// restricted to the aggregates and the coarse correction added back; a backward sweep. The
+/// backward sweep is the forward one's transpose, so the cycle is symmetric, as the conjugate
+/// gradient needs.
+#[allow(clippy::too_many_arguments)] // a level's matrix, its unknowns and scratch
 fn cycle(
     a: &BlockCsr,
     inv: &[DMat3],
@@ -252,35 +334,50 @@ fn cycle(
     coarse: &mut [Level],
     b: &[Vec3],
     x: &mut [Vec3],
+    work: &mut Vec<Vec3>,
+    parallel: bool,
 ) {
-    forward_from_zero(a, inv, b, x);
+    forward_from_zero(a, inv, b, x, parallel);
     let kept = |i: usize| !skip.is_some_and(|f| f[i]);
     match coarse.split_first_mut() {
         Some((level, rest)) => {
+            work.resize(a.rows(), Vec3::ZERO);
+            let xr = &*x;
+            by_blocks(work, parallel, |lo, out| {
+                for (l, o) in out.iter_mut().enumerate() {
+                    *o = residual_after_forward(a, lo + l, xr);
+                }
+            });
             level.res.fill(Vec3::ZERO);
             for i in 0..a.rows() {
                 if kept(i) {
-                    let upper = blocks_times(a, a.diag[i] as usize + 1, a.start[i + 1] as usize, x);
-                    let g = level.aggregate[i] as usize;
-                    level.res[g] -= upper;
+                    level.res[level.aggregate[i] as usize] += work[i];
                 }
             }
-            cycle(&level.a, &level.inv_diag, None, rest, &level.res, &mut level.x);
+            let Level {
+                a: ca,
+                inv_diag,
+                res,
+                x: cx,
+                work: cwork,
+                ..
+            } = level;
+            cycle(ca, inv_diag, None, rest, res, cx, cwork, parallel);
             for i in 0..a.rows() {
                 if kept(i) {
-                    x[i] += level.x[level.aggregate[i] as usize];
+                    x[i] += cx[level.aggregate[i] as usize];
                 }
             }
         }
         None => {
             // The coarsest level: symmetric sweeps.
             for _ in 0..3 {
-                sweep(a, inv, b, x, false);
-                sweep(a, inv, b, x, true);
+                sweep(a, inv, b, x, work, false, parallel);
+                sweep(a, inv, b, x, work, true, parallel);
             }
         }
     }
-    sweep(a, inv, b, x, false);
+    sweep(a, inv, b, x, work, false, parallel);
 }
 
 impl Preconditioner {
@@ -306,6 +403,7 @@ impl Preconditioner {
                 galerkin,
                 res: vec![Vec3::ZERO; m],
                 x: vec![Vec3::ZERO; m],
+                work: Vec::new(),
             });
             fine = c;
         }
@@ -349,14 +447,23 @@ impl Preconditioner {
 
     /// `z = M^-1 r` for the matrix `a` of the last refresh (`r` zero on the fixed rows; `z`
     /// is zero there).
-    pub fn apply(&mut self, a: &BlockCsr, r: &[Vec3], z: &mut [Vec3]) {
+    pub fn apply(&mut self, a: &BlockCsr, r: &[Vec3], z: &mut [Vec3], parallel: bool) {
         if self.levels.is_empty() {
             for i in 0..r.len() {
                 z[i] = self.inv_diag[i] * r[i];
             }
             return;
         }
-        cycle(a, &self.inv_diag, Some(&self.fixed), &mut self.levels, r, z);
+        cycle(
+            a,
+            &self.inv_diag,
+            Some(&self.fixed),
+            &mut self.levels,
+            r,
+            z,
+            &mut self.work,
+            parallel,
+        );
     }
 
     /// Heap bytes held.
@@ -364,6 +471,7 @@ impl Preconditioner {
         use std::mem::size_of;
         self.inv_diag.capacity() * size_of::<DMat3>()
             + self.fixed.capacity()
+            + self.work.capacity() * size_of::<Vec3>()
             + self
                 .levels
                 .iter()
@@ -371,7 +479,8 @@ impl Preconditioner {
                     l.a.heap_bytes()
                         + l.inv_diag.capacity() * size_of::<DMat3>()
                         + (l.aggregate.capacity() + l.galerkin.capacity()) * 4
-                        + (l.res.capacity() + l.x.capacity()) * size_of::<Vec3>()
+                        + (l.res.capacity() + l.x.capacity() + l.work.capacity())
+                            * size_of::<Vec3>()
                 })
                 .sum::<usize>()
     }
@@ -413,7 +522,7 @@ impl CgScratch {
 /// `y = A x`, on the pool when `parallel` (a row is a gather in column order: the same bits
 /// whichever thread takes it).
 fn product(a: &BlockCsr, x: &[Vec3], y: &mut [Vec3], parallel: bool) {
-    let row = |i: usize| blocks_times(a, a.start[i] as usize, a.start[i + 1] as usize, x);
+    let row = |i: usize| blocks_times(a, a.start[i] as usize, a.start[i + 1] as usize, x, 0);
     if parallel && y.len() > 2 * ROWS_PER_TASK {
         y.par_chunks_mut(ROWS_PER_TASK)
             .enumerate()
@@ -524,7 +633,7 @@ fn solve(
     if dot(r, r, fixed).sqrt() <= tolerance * norm_b {
         return 0;
     }
-    pre.apply(a, r, z);
+    pre.apply(a, r, z, parallel);
     mask(z);
     p.clone_from(z);
     let mut rz = dot(r, z, fixed);
@@ -543,7 +652,7 @@ fn solve(
         if dot(r, r, fixed).sqrt() <= tolerance * norm_b {
             return it;
         }
-        pre.apply(a, r, z);
+        pre.apply(a, r, z, parallel);
         mask(z);
         let rz_new = dot(r, z, fixed);
         let beta = rz_new / rz;
