@@ -12,9 +12,12 @@
 //! aggregate), the coarse matrix is the Galerkin product `P^T A P` with the piecewise-constant
 //! prolongation `P` (each particle's block of the identity into its aggregate), levels repeat
 //! until a few hundred particles remain, and the coarsest level is solved by symmetric block
-//! Gauss-Seidel sweeps. A V-cycle smooths with a forward block Gauss-Seidel sweep before the
-//! coarse correction and a backward one after it, so it is symmetric, as the conjugate gradient
-//! needs.
+//! Gauss-Seidel sweeps. A V-cycle smooths with a forward block Gauss-Seidel sweep from zero
+//! before the coarse correction (it reads only the lower blocks, and the residual after it is
+//! the upper blocks' product alone) and a backward one after it, so it is symmetric, as the
+//! conjugate gradient needs. The sweeps run over fixed blocks of rows side by side (Gauss-Seidel
+//! inside a block, the other blocks' values from before the sweep): the same bits on any
+//! thread count, and both cores at work.
 
 use crate::math::{Real, Soa, Vec3};
 use glam::DMat3;
