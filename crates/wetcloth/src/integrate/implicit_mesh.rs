@@ -540,7 +540,7 @@ impl ImplicitMesh {
             unreachable!("converted above")
         };
         let n = model.len();
-        let parallel = fused.rows_per_task.is_some();
+        let parallel = crate::exec::use_pool(n);
         let x = &state.x;
         let law = model.pressure_force;
         // Forces at the step's start: gravity, springs (damping is in the matrix).

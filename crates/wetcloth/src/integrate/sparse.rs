@@ -12,9 +12,12 @@
 //! aggregate), the coarse matrix is the Galerkin product `P^T A P` with the piecewise-constant
 //! prolongation `P` (each particle's block of the identity into its aggregate), levels repeat
 //! until a few hundred particles remain, and the coarsest level is solved by symmetric block
-//! Gauss-Seidel sweeps. A V-cycle smooths with a forward block Gauss-Seidel sweep before the
-//! coarse correction and a backward one after it, so it is symmetric, as the conjugate gradient
-//! needs.
+//! Gauss-Seidel sweeps. A V-cycle smooths with a forward block Gauss-Seidel sweep from zero
+//! before the coarse correction (it reads only the lower blocks, and the residual after it is
+//! the upper blocks' product alone) and a backward one after it, so it is symmetric, as the
+//! conjugate gradient needs. The sweeps run over fixed blocks of rows side by side (Gauss-Seidel
+//! inside a block, the other blocks' values from before the sweep): the same bits on any
+//! thread count, and both cores at work.
 
 use crate::math::{Real, Soa, Vec3};
 use glam::DMat3;
@@ -89,28 +92,6 @@ impl BlockCsr {
         y
     }
 
-    /// `y = A x`, on the pool when `parallel`.
-    pub fn mul(&self, x: &Soa, y: &mut Soa, parallel: bool) {
-        let n = self.rows();
-        if parallel && n > 2 * ROWS_PER_TASK {
-            let (ys, zs) = (&mut y.y, &mut y.z);
-            y.x.par_chunks_mut(ROWS_PER_TASK)
-                .zip(ys.par_chunks_mut(ROWS_PER_TASK))
-                .zip(zs.par_chunks_mut(ROWS_PER_TASK))
-                .enumerate()
-                .for_each(|(c, ((a, b), d))| {
-                    for l in 0..a.len() {
-                        let v = self.row_times(c * ROWS_PER_TASK + l, x);
-                        (a[l], b[l], d[l]) = (v.x, v.y, v.z);
-                    }
-                });
-        } else {
-            for i in 0..n {
-                y.set(i, self.row_times(i, x));
-            }
-        }
-    }
-
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         (self.start.capacity() + self.col.capacity() + self.diag.capacity()) * 4
@@ -139,16 +120,16 @@ fn invert(b: DMat3) -> DMat3 {
 struct Level {
     /// The coarse matrix (`P^T A P` of the finer level).
     a: BlockCsr,
+    /// Inverses of this level's diagonal blocks.
+    inv_diag: Vec<DMat3>,
     /// The aggregate (row of this level) each row of the finer level joins.
     aggregate: Vec<u32>,
     /// For each block of the finer level's matrix, where it adds in `a.val`.
     galerkin: Vec<u32>,
-    /// Inverses of this level's diagonal blocks.
-    inv_diag: Vec<DMat3>,
-    /// Scratch: the restricted residual, the coarse correction, a product.
-    res: Soa,
-    x: Soa,
-    ax: Soa,
+    /// Scratch: the restricted residual, the coarse correction, a sweep's.
+    res: Vec<Vec3>,
+    x: Vec<Vec3>,
+    work: Vec<Vec3>,
 }
 
 /// The preconditioner of a mesh system: an aggregation multigrid V-cycle (block Gauss-Seidel
@@ -159,10 +140,12 @@ struct Level {
 pub(crate) struct Preconditioner {
     /// Inverses of the finest matrix's diagonal blocks (zero for fixed rows).
     inv_diag: Vec<DMat3>,
+    /// The finest level's rows left out (fixed).
+    fixed: Vec<bool>,
     /// The coarse levels, finest first (none: block-Jacobi).
     levels: Vec<Level>,
-    /// Scratch of the finest level: a product.
-    ax: Soa,
+    /// Scratch of the finest level's sweeps.
+    work: Vec<Vec3>,
 }
 
 /// Smallest level aggregated further.
@@ -233,23 +216,171 @@ fn coarse_pattern(a: &BlockCsr, agg: &[u32], m: usize) -> (BlockCsr, Vec<u32>) {
     (c, galerkin)
 }
 
-/// One block Gauss-Seidel sweep over the rows, forward or backward: each row's residual with
-/// the rows already swept, `x_i += D_i^-1 r_i`. A forward sweep before the coarse correction and
-/// a backward one after keep the V-cycle symmetric (the conjugate gradient needs that).
-fn gauss_seidel(a: &BlockCsr, inv_diag: &[DMat3], b: &Soa, x: &mut Soa, forward: bool) {
-    let n = b.len();
-    let mut row = |i: usize| {
-        let mut r = b.get(i);
-        for k in a.start[i] as usize..a.start[i + 1] as usize {
-            r -= a.val[k] * x.get(a.col[k] as usize);
-        }
-        x.set(i, x.get(i) + inv_diag[i] * r);
-    };
-    if forward {
-        (0..n).for_each(&mut row);
-    } else {
-        (0..n).rev().for_each(&mut row);
+/// Rows of a smoothing block: a sweep runs over blocks of this many consecutive rows (on the
+/// pool when there is one), Gauss-Seidel within each block, each block taking the others'
+/// values from before the sweep (Jacobi between blocks). The blocks are fixed, so the bits do
+/// not depend on the thread count; a level of at most this many rows is swept exactly.
+const SWEEP_ROWS: usize = 512;
+
+/// `sum A_ik x_(k - offset)` over the blocks `lo..hi` of `a`'s storage, in two interleaved
+/// sums (the blocks' products do not wait on one another).
+#[inline(always)]
+fn blocks_times(a: &BlockCsr, lo: usize, hi: usize, x: &[Vec3], offset: usize) -> Vec3 {
+    let (mut y0, mut y1) = (Vec3::ZERO, Vec3::ZERO);
+    let (val, col) = (&a.val[lo..hi], &a.col[lo..hi]);
+    let pairs = val.len() / 2;
+    for k in 0..pairs {
+        y0 += val[2 * k] * x[col[2 * k] as usize - offset];
+        y1 += val[2 * k + 1] * x[col[2 * k + 1] as usize - offset];
     }
+    if val.len() % 2 == 1 {
+        y0 += val[val.len() - 1] * x[col[col.len() - 1] as usize - offset];
+    }
+    y0 + y1
+}
+
+/// Where row `i`'s columns from `lo` on, and from `hi` on, start in `a`'s storage.
+#[inline(always)]
+fn split_row(a: &BlockCsr, i: usize, lo: usize, hi: usize) -> (usize, usize) {
+    let s = a.start[i] as usize;
+    let cols = &a.col[s..a.start[i + 1] as usize];
+    (
+        s + cols.partition_point(|&j| (j as usize) < lo),
+        s + cols.partition_point(|&j| (j as usize) < hi),
+    )
+}
+
+/// Runs `f(block, rows)` on each smoothing block of `x`, on the pool when `parallel`.
+fn by_blocks(x: &mut [Vec3], parallel: bool, f: impl Fn(usize, &mut [Vec3]) + Sync) {
+    if parallel && x.len() > SWEEP_ROWS {
+        x.par_chunks_mut(SWEEP_ROWS)
+            .enumerate()
+            .for_each(|(c, xs)| f(c * SWEEP_ROWS, xs));
+    } else {
+        x.chunks_mut(SWEEP_ROWS)
+            .enumerate()
+            .for_each(|(c, xs)| f(c * SWEEP_ROWS, xs));
+    }
+}
+
+/// `x = (D + L_b)^-1 b`, `L_b` the lower blocks inside each smoothing block: a forward sweep
+/// from zero (every other column is still zero).
+fn forward_from_zero(a: &BlockCsr, inv: &[DMat3], b: &[Vec3], x: &mut [Vec3], parallel: bool) {
+    by_blocks(x, parallel, |lo, xs| {
+        for l in 0..xs.len() {
+            let i = lo + l;
+            let (p, _) = split_row(a, i, lo, lo);
+            let r = b[i] - blocks_times(a, p, a.diag[i] as usize, xs, lo);
+            xs[l] = inv[i] * r;
+        }
+    });
+}
+
+/// Row `i`'s residual `b_i - (A x)_i` after [`forward_from_zero`]: minus the blocks it did not
+/// read (each row's own and lower in-block part it solved exactly).
+#[inline]
+fn residual_after_forward(a: &BlockCsr, i: usize, x: &[Vec3]) -> Vec3 {
+    let lo = i / SWEEP_ROWS * SWEEP_ROWS;
+    let (p, _) = split_row(a, i, lo, lo);
+    -(blocks_times(a, a.start[i] as usize, p, x, 0)
+        + blocks_times(a, a.diag[i] as usize + 1, a.start[i + 1] as usize, x, 0))
+}
+
+/// One block Gauss-Seidel sweep, forward or backward, in smoothing blocks: each row's residual
+/// with the rows of its block already swept and the other blocks' values from before the sweep
+/// (`old`, scratch), `x_i += D_i^-1 r_i`.
+fn sweep(
+    a: &BlockCsr,
+    inv: &[DMat3],
+    b: &[Vec3],
+    x: &mut [Vec3],
+    old: &mut Vec<Vec3>,
+    forward: bool,
+    parallel: bool,
+) {
+    if x.len() > SWEEP_ROWS {
+        old.clear();
+        old.extend_from_slice(x);
+    }
+    let old = &old[..];
+    by_blocks(x, parallel, |lo, xs| {
+        let hi = lo + xs.len();
+        let row = |l: usize, xs: &mut [Vec3]| {
+            let i = lo + l;
+            let (s, e) = (a.start[i] as usize, a.start[i + 1] as usize);
+            let (p, q) = split_row(a, i, lo, hi);
+            let r = b[i]
+                - blocks_times(a, s, p, old, 0)
+                - blocks_times(a, p, q, xs, lo)
+                - blocks_times(a, q, e, old, 0);
+            xs[l] += inv[i] * r;
+        };
+        if forward {
+            (0..xs.len()).for_each(|l| row(l, xs));
+        } else {
+            (0..xs.len()).rev().for_each(|l| row(l, xs));
+        }
+    });
+}
+
+/// A V-cycle on the level whose matrix is `a` (inverse diagonal `inv`, its rows `skip` marks
+/// left out: their unknowns stay zero), right-hand side `b`, into `x` (`work`: scratch);
+/// `coarse[0]` is the next coarser level. A forward sweep from zero; the residual after it
+/// restricted to the aggregates and the coarse correction added back; a backward sweep. The
+/// backward sweep is the forward one's transpose, so the cycle is symmetric, as the conjugate
+/// gradient needs.
+#[allow(clippy::too_many_arguments)] // a level's matrix, its unknowns and scratch
+fn cycle(
+    a: &BlockCsr,
+    inv: &[DMat3],
+    skip: Option<&[bool]>,
+    coarse: &mut [Level],
+    b: &[Vec3],
+    x: &mut [Vec3],
+    work: &mut Vec<Vec3>,
+    parallel: bool,
+) {
+    forward_from_zero(a, inv, b, x, parallel);
+    let kept = |i: usize| !skip.is_some_and(|f| f[i]);
+    match coarse.split_first_mut() {
+        Some((level, rest)) => {
+            work.resize(a.rows(), Vec3::ZERO);
+            let xr = &*x;
+            by_blocks(work, parallel, |lo, out| {
+                for (l, o) in out.iter_mut().enumerate() {
+                    *o = residual_after_forward(a, lo + l, xr);
+                }
+            });
+            level.res.fill(Vec3::ZERO);
+            for i in 0..a.rows() {
+                if kept(i) {
+                    level.res[level.aggregate[i] as usize] += work[i];
+                }
+            }
+            let Level {
+                a: ca,
+                inv_diag,
+                res,
+                x: cx,
+                work: cwork,
+                ..
+            } = level;
+            cycle(ca, inv_diag, None, rest, res, cx, cwork, parallel);
+            for i in 0..a.rows() {
+                if kept(i) {
+                    x[i] += cx[level.aggregate[i] as usize];
+                }
+            }
+        }
+        None => {
+            // The coarsest level: symmetric sweeps.
+            for _ in 0..3 {
+                sweep(a, inv, b, x, work, false, parallel);
+                sweep(a, inv, b, x, work, true, parallel);
+            }
+        }
+    }
+    sweep(a, inv, b, x, work, false, parallel);
 }
 
 impl Preconditioner {
@@ -257,7 +388,7 @@ impl Preconditioner {
     pub fn setup(&mut self, a: &BlockCsr, multigrid: bool) {
         self.levels.clear();
         self.inv_diag = vec![DMat3::ZERO; a.rows()];
-        self.ax = Soa::zeros(a.rows());
+        self.fixed = vec![false; a.rows()];
         if !multigrid {
             return;
         }
@@ -270,12 +401,12 @@ impl Preconditioner {
             let (c, galerkin) = coarse_pattern(&fine, &agg, m);
             self.levels.push(Level {
                 a: c.clone(),
+                inv_diag: vec![DMat3::ZERO; m],
                 aggregate: agg,
                 galerkin,
-                inv_diag: vec![DMat3::ZERO; m],
-                res: Soa::zeros(m),
-                x: Soa::zeros(m),
-                ax: Soa::zeros(m),
+                res: vec![Vec3::ZERO; m],
+                x: vec![Vec3::ZERO; m],
+                work: Vec::new(),
             });
             fine = c;
         }
@@ -291,6 +422,8 @@ impl Preconditioner {
                 invert(a.val[a.diag[i] as usize])
             };
         }
+        self.fixed.clear();
+        self.fixed.extend_from_slice(fixed);
         for l in 0..self.levels.len() {
             let (done, rest) = self.levels.split_at_mut(l);
             let level = &mut rest[0];
@@ -315,114 +448,96 @@ impl Preconditioner {
         }
     }
 
-    /// `z = M^-1 r` for the matrix `a` of the last refresh.
-    pub fn apply(&mut self, a: &BlockCsr, r: &Soa, z: &mut Soa) {
+    /// `z = M^-1 r` for the matrix `a` of the last refresh (`r` zero on the fixed rows; `z`
+    /// is zero there).
+    pub fn apply(&mut self, a: &BlockCsr, r: &[Vec3], z: &mut [Vec3], parallel: bool) {
         if self.levels.is_empty() {
             for i in 0..r.len() {
-                z.set(i, self.inv_diag[i] * r.get(i));
+                z[i] = self.inv_diag[i] * r[i];
             }
             return;
         }
-        let mut ax = std::mem::take(&mut self.ax);
-        let inv = std::mem::take(&mut self.inv_diag);
-        self.cycle(0, a, &inv, r, z, &mut ax);
-        self.inv_diag = inv;
-        self.ax = ax;
-    }
-
-    /// A V-cycle on the level whose matrix is `a` (inverse diagonal `inv`), right-hand side
-    /// `b`, into `x`; `levels[l]` is the next coarser level.
-    fn cycle(&mut self, l: usize, a: &BlockCsr, inv: &[DMat3], b: &Soa, x: &mut Soa, ax: &mut Soa) {
-        let n = b.len();
-        // Pre-smooth from zero: a forward Gauss-Seidel sweep.
-        for v in [&mut x.x, &mut x.y, &mut x.z] {
-            v.fill(0.0);
-        }
-        gauss_seidel(a, inv, b, x, true);
-        if l < self.levels.len() {
-            a.mul(x, ax, false);
-            let mut level = std::mem::take(&mut self.levels[l]);
-            for v in [&mut level.res.x, &mut level.res.y, &mut level.res.z] {
-                v.fill(0.0);
-            }
-            for i in 0..n {
-                let g = level.aggregate[i] as usize;
-                level.res.set(g, level.res.get(g) + (b.get(i) - ax.get(i)));
-            }
-            let (coarse_a, coarse_inv) = (
-                std::mem::take(&mut level.a),
-                std::mem::take(&mut level.inv_diag),
-            );
-            let (res, mut cx, mut cax) = (
-                std::mem::take(&mut level.res),
-                std::mem::take(&mut level.x),
-                std::mem::take(&mut level.ax),
-            );
-            self.cycle(l + 1, &coarse_a, &coarse_inv, &res, &mut cx, &mut cax);
-            for i in 0..n {
-                let g = level.aggregate[i] as usize;
-                x.set(i, x.get(i) + cx.get(g));
-            }
-            level.a = coarse_a;
-            level.inv_diag = coarse_inv;
-            level.res = res;
-            level.x = cx;
-            level.ax = cax;
-            self.levels[l] = level;
-        } else {
-            // The coarsest level: symmetric sweeps.
-            for _ in 0..3 {
-                gauss_seidel(a, inv, b, x, false);
-                gauss_seidel(a, inv, b, x, true);
-            }
-        }
-        // Post-smooth: the backward sweep.
-        gauss_seidel(a, inv, b, x, false);
+        cycle(
+            a,
+            &self.inv_diag,
+            Some(&self.fixed),
+            &mut self.levels,
+            r,
+            z,
+            &mut self.work,
+            parallel,
+        );
     }
 
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.inv_diag.capacity() * std::mem::size_of::<DMat3>()
-            + self.ax.heap_bytes()
+        use std::mem::size_of;
+        self.inv_diag.capacity() * size_of::<DMat3>()
+            + self.fixed.capacity()
+            + self.work.capacity() * size_of::<Vec3>()
             + self
                 .levels
                 .iter()
                 .map(|l| {
                     l.a.heap_bytes()
-                        + l.inv_diag.capacity() * std::mem::size_of::<DMat3>()
+                        + l.inv_diag.capacity() * size_of::<DMat3>()
                         + (l.aggregate.capacity() + l.galerkin.capacity()) * 4
-                        + l.res.heap_bytes()
-                        + l.x.heap_bytes()
-                        + l.ax.heap_bytes()
+                        + (l.res.capacity() + l.x.capacity() + l.work.capacity())
+                            * size_of::<Vec3>()
                 })
                 .sum::<usize>()
     }
 }
 
 /// `a . b` over the rows not `fixed`, summed in row order.
-pub(crate) fn dot(a: &Soa, b: &Soa, fixed: &[bool]) -> Real {
+fn dot(a: &[Vec3], b: &[Vec3], fixed: &[bool]) -> Real {
     let mut s = 0.0;
     for i in 0..a.len() {
         if !fixed[i] {
-            s += a.get(i).dot(b.get(i));
+            s += a[i].dot(b[i]);
         }
     }
     s
 }
 
-/// The conjugate gradient's vectors, kept between solves.
+/// The conjugate gradient's vectors, kept between solves (a vector of a particle's three
+/// components each: a row's product gathers its neighbours' whole vectors at once).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct CgScratch {
-    r: Soa,
-    z: Soa,
-    p: Soa,
-    ap: Soa,
+    b: Vec<Vec3>,
+    x: Vec<Vec3>,
+    r: Vec<Vec3>,
+    z: Vec<Vec3>,
+    p: Vec<Vec3>,
+    ap: Vec<Vec3>,
 }
 
 impl CgScratch {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
-        self.r.heap_bytes() + self.z.heap_bytes() + self.p.heap_bytes() + self.ap.heap_bytes()
+        [&self.b, &self.x, &self.r, &self.z, &self.p, &self.ap]
+            .iter()
+            .map(|v| v.capacity() * std::mem::size_of::<Vec3>())
+            .sum()
+    }
+}
+
+/// `y = A x`, on the pool when `parallel` (a row is a gather in column order: the same bits
+/// whichever thread takes it).
+fn product(a: &BlockCsr, x: &[Vec3], y: &mut [Vec3], parallel: bool) {
+    let row = |i: usize| blocks_times(a, a.start[i] as usize, a.start[i + 1] as usize, x, 0);
+    if parallel && y.len() > 2 * ROWS_PER_TASK {
+        y.par_chunks_mut(ROWS_PER_TASK)
+            .enumerate()
+            .for_each(|(c, out)| {
+                for (l, o) in out.iter_mut().enumerate() {
+                    *o = row(c * ROWS_PER_TASK + l);
+                }
+            });
+    } else {
+        for (i, o) in y.iter_mut().enumerate() {
+            *o = row(i);
+        }
     }
 }
 
@@ -449,56 +564,84 @@ pub(crate) fn pcg(
     scratch: &mut CgScratch,
 ) -> usize {
     let n = b.len();
-    let CgScratch { r, z, p, ap } = scratch;
-    for v in [&mut *r, &mut *z, &mut *p, &mut *ap] {
-        if v.len() != n {
-            *v = Soa::zeros(n);
-        }
+    let CgScratch {
+        b: bv,
+        x: xv,
+        r,
+        z,
+        p,
+        ap,
+    } = scratch;
+    for v in [&mut *bv, &mut *xv, &mut *r, &mut *z, &mut *p, &mut *ap] {
+        v.resize(n, Vec3::ZERO);
     }
-    let mask = |v: &mut Soa| {
+    for i in 0..n {
+        bv[i] = b.get(i);
+        xv[i] = x.get(i);
+    }
+    let iterations = solve(
+        a,
+        pre,
+        bv,
+        xv,
+        fixed,
+        normals,
+        tolerance,
+        max_iterations,
+        parallel,
+        [r, z, p, ap],
+    );
+    for (i, &v) in xv.iter().enumerate() {
+        x.set(i, v);
+    }
+    iterations
+}
+
+/// [`pcg`] on vectors of particles' three components.
+#[allow(clippy::too_many_arguments)] // the system, its unknowns and the CG's scratch
+fn solve(
+    a: &BlockCsr,
+    pre: &mut Preconditioner,
+    b: &[Vec3],
+    x: &mut [Vec3],
+    fixed: &[bool],
+    normals: &[Vec3],
+    tolerance: Real,
+    max_iterations: usize,
+    parallel: bool,
+    [r, z, p, ap]: [&mut Vec<Vec3>; 4],
+) -> usize {
+    let n = b.len();
+    let mask = |v: &mut [Vec3]| {
         for i in 0..n {
             if fixed[i] {
-                v.set(i, Vec3::ZERO);
+                v[i] = Vec3::ZERO;
             }
         }
-        for (i, &m) in normals.iter().enumerate() {
+        for (v, &m) in v.iter_mut().zip(normals) {
             if m != Vec3::ZERO {
-                let p = v.get(i);
-                v.set(i, p - m * m.dot(p));
+                *v -= m * m.dot(*v);
             }
         }
     };
-    a.mul(x, ap, parallel);
+    product(a, x, ap, parallel);
     for i in 0..n {
-        r.set(
-            i,
-            if fixed[i] {
-                Vec3::ZERO
-            } else {
-                b.get(i) - ap.get(i)
-            },
-        );
+        r[i] = if fixed[i] { Vec3::ZERO } else { b[i] - ap[i] };
     }
     mask(r);
-    let norm_b = if normals.is_empty() {
-        dot(b, b, fixed).sqrt().max(1e-300)
-    } else {
-        let mut fb = std::mem::take(z);
-        fb.clone_from(b);
-        mask(&mut fb);
-        let norm = dot(&fb, &fb, fixed).sqrt().max(1e-300);
-        *z = fb;
-        norm
-    };
+    // The right-hand side's norm over what the solve sees of it.
+    z.clone_from_slice(b);
+    mask(z);
+    let norm_b = dot(z, z, fixed).sqrt().max(1e-300);
     if dot(r, r, fixed).sqrt() <= tolerance * norm_b {
         return 0;
     }
-    pre.apply(a, r, z);
+    pre.apply(a, r, z, parallel);
     mask(z);
     p.clone_from(z);
     let mut rz = dot(r, z, fixed);
     for it in 1..=max_iterations {
-        a.mul(p, ap, parallel);
+        product(a, p, ap, parallel);
         mask(ap);
         let pap = dot(p, ap, fixed);
         if pap.is_nan() || pap <= 0.0 {
@@ -506,19 +649,19 @@ pub(crate) fn pcg(
         }
         let alpha = rz / pap;
         for i in 0..n {
-            x.set(i, x.get(i) + p.get(i) * alpha);
-            r.set(i, r.get(i) - ap.get(i) * alpha);
+            x[i] += p[i] * alpha;
+            r[i] -= ap[i] * alpha;
         }
         if dot(r, r, fixed).sqrt() <= tolerance * norm_b {
             return it;
         }
-        pre.apply(a, r, z);
+        pre.apply(a, r, z, parallel);
         mask(z);
         let rz_new = dot(r, z, fixed);
         let beta = rz_new / rz;
         rz = rz_new;
         for i in 0..n {
-            p.set(i, z.get(i) + p.get(i) * beta);
+            p[i] = z[i] + p[i] * beta;
         }
     }
     max_iterations
@@ -571,11 +714,12 @@ mod tests {
                 false,
                 &mut scratch,
             );
-            let mut ax = Soa::zeros(n);
-            a.mul(&x, &mut ax, false);
+            let xs: Vec<Vec3> = (0..n).map(|i| x.get(i)).collect();
+            let mut ax = vec![Vec3::ZERO; n];
+            product(&a, &xs, &mut ax, false);
             let mut err: Real = 0.0;
             for i in 0..n {
-                err = err.max((ax.get(i) - b.get(i)).length());
+                err = err.max((ax[i] - b.get(i)).length());
             }
             assert!(err < 1e-7, "multigrid {mg}: residual {err}");
         }
