@@ -635,9 +635,13 @@ impl ImplicitMesh {
             SolveBudget::Converged => TOLERANCE_CONVERGED,
             SolveBudget::Interactive => TOLERANCE_INTERACTIVE,
         };
+        // The solves that only decide which contacts hold, slide or let go stop at the grid's
+        // contact tolerance; the last (its contacts unchanged, or the last allowed) is taken on
+        // to the budget's tolerance from where it stopped.
+        let deciding = tolerance.max(super::implicit::CG_CONTACT_TOLERANCE);
         for pass in 0..MAX_CONTACT_SOLVES {
             self.constrain();
-            self.solve_velocities(model, x, prev, dt, tolerance, parallel);
+            self.solve_velocities(model, x, prev, dt, deciding, parallel);
             // The pressures at the step's end, solved once from the first solve (their force
             // is then part of the right-hand side of any solve after it).
             if pass == 0 {
@@ -758,6 +762,9 @@ impl ImplicitMesh {
                 }
             }
             if pass + 1 == MAX_CONTACT_SOLVES || !self.update_contacts(model, x, prev, dt) {
+                if deciding > tolerance {
+                    self.solve_velocities(model, x, prev, dt, tolerance, parallel);
+                }
                 break;
             }
         }
