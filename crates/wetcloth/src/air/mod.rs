@@ -233,7 +233,9 @@ impl AirModel {
     }
 
     /// For [`Timing::EndOfStep`]: solves the step's pressure from the coasting positions
-    /// `coast` (m), measured in `coast_measures`; `held` marks the hands' particles.
+    /// `coast` (m), measured in `coast_measures`; `held` marks the hands' particles. The
+    /// pockets take the particles' `response` per pascal from an implicit solve if given
+    /// ([`Pockets::solve_end_of_step`]); the thesis' bubble ignores it.
     pub(crate) fn solve_end_of_step(
         &mut self,
         air: &AirParams,
@@ -241,12 +243,15 @@ impl AirModel {
         coast: &Soa,
         coast_measures: &Measures,
         held: &[bool],
+        response: Option<&Soa>,
     ) {
         match self {
             AirModel::Thesis(b) => {
                 b.solve_end_of_step(model, coast, coast_measures.totals().volume, held)
             }
-            AirModel::Pockets(p) => p.solve_end_of_step(air, model, coast, coast_measures, held),
+            AirModel::Pockets(p) => {
+                p.solve_end_of_step(air, model, coast, coast_measures, held, response)
+            }
         }
     }
 

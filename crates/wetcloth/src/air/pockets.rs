@@ -366,6 +366,10 @@ impl Pockets {
 
     /// Solves each pocket's end-of-step pressure from the coasting positions `coast` (m) and
     /// their cell volumes in `coast_measures` (see the module docs and `air::bubble::EndOfStep`).
+    /// Each free particle of a pocket moves off the surface by its response per pascal times
+    /// the pocket's pressure difference: with `response` (m/s per Pa, the step's velocities
+    /// answering one pascal on every pocket, from an implicit solve) `dt` times its normal
+    /// part; without, a lone particle's explicit step, `dt^2 S / m`.
     pub(crate) fn solve_end_of_step(
         &mut self,
         air: &AirParams,
@@ -373,6 +377,7 @@ impl Pockets {
         coast: &Soa,
         coast_measures: &Measures,
         held: &[bool],
+        response: Option<&Soa>,
     ) {
         let Some(pending) = self.pending.take() else {
             return;
@@ -412,6 +417,21 @@ impl Pockets {
         let s_of = |i: usize| model.area(i);
         let first = if pending.first_step { 0.5 } else { 1.0 };
         let h_of = |i: usize| pending.dt * pending.dt / model.mass(i) * first;
+        // Each particle's move off the surface per pascal, m/Pa (see above).
+        let up = model
+            .sticking
+            .map_or(crate::math::Vec3::Y, |plane| plane.up);
+        let rate_of = |i: usize| match response {
+            None => h_of(i) * s_of(i),
+            Some(w) => {
+                let normal = if self.surface {
+                    self.scratch.normal[i]
+                } else {
+                    up
+                };
+                pending.dt * normal.dot(w.get(i))
+            }
+        };
         // Each pocket's coasting volume: its cells', plus the depth of its particles coasting
         // into the surface (the contact pushes them back out).
         let mut base = std::mem::take(&mut self.scratch.base);
@@ -444,12 +464,12 @@ impl Pockets {
             let volume = |p: Real| {
                 let (mut v, mut slope) = (base[q], 0.0);
                 for &i in &members[q] {
-                    let (h, s) = (h_of(i), s_of(i));
-                    let push = h * s * (p - pa);
+                    let (rate, s) = (rate_of(i), s_of(i));
+                    let push = rate * (p - pa);
                     let g = gap(i).max(0.0);
                     if push >= 0.0 || -push < g {
                         v += s * push;
-                        slope += h * s * s;
+                        slope += rate * s;
                     } else {
                         v -= s * g;
                     }

@@ -280,8 +280,14 @@ impl Verlet {
                 self.coast.keep_cells = consts.keep_cells;
                 self.coast
                     .remeasure_all(grid, prev, model.sticking, model.radius, rows);
-                air.model
-                    .solve_end_of_step(air.params, model, prev, &self.coast, &control.held);
+                air.model.solve_end_of_step(
+                    air.params,
+                    model,
+                    prev,
+                    &self.coast,
+                    &control.held,
+                    None,
+                );
                 set_load(
                     &mut consts,
                     air.model.load(air.params),

@@ -321,8 +321,14 @@ impl MeshVerlet {
                 self.coast.keep_cells = fused.measures.keep_cells;
                 self.coast
                     .remeasure_mesh(model.layout(), prev, model.sticking, model.radius);
-                air.model
-                    .solve_end_of_step(air.params, model, prev, &self.coast, &control.held);
+                air.model.solve_end_of_step(
+                    air.params,
+                    model,
+                    prev,
+                    &self.coast,
+                    &control.held,
+                    None,
+                );
                 let (p, each) = load_of(&air);
                 pressure_now(&mut self.pressure, p, each);
                 for k in 0..n {

@@ -163,16 +163,21 @@ impl Model {
         let radius = cloth.particle_radius();
         let area_per_particle = cloth_area / n as Real;
         let areas = mesh.as_ref().map(|m| m.area.clone());
-        // Wetness at each particle's rest position: on the grid relative to the cloth's centre.
-        let wetness: Vec<Real> = match (&grid, &mesh) {
-            (Some(grid), _) => {
-                let rest = grid.rest_positions(Vec3::ZERO);
+        // Wetness at each particle's rest position: on the grid (the springs' or, numbered alike,
+        // the membrane's mesh of its triangles) from the cloth's centre; on a mesh cloth in the
+        // scene at t = 0.
+        let wetness: Vec<Real> = match (&cloth.mesh, &mesh) {
+            (None, _) => {
+                let rest = grid
+                    .clone()
+                    .unwrap_or_else(|| Grid::new(cloth))
+                    .rest_positions(Vec3::ZERO);
                 (0..n)
                     .map(|k| cloth.wetness_at(rest.x[k], rest.z[k]))
                     .collect()
             }
-            (None, Some(m)) => m.rest.iter().map(|&p| cloth.wetness_at_point(p)).collect(),
-            (None, None) => Vec::new(),
+            (Some(_), Some(m)) => m.rest.iter().map(|&p| cloth.wetness_at_point(p)).collect(),
+            (Some(_), None) => Vec::new(),
         };
         let uniform = cloth.uniformly_wet();
         // The dry cloth's mass: equal shares on the grid (the thesis), by area on a mesh.

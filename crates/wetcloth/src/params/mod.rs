@@ -173,8 +173,32 @@ impl SimConfig {
             check_range(&key("center"), p.center[0], -1e3, 1e3)?;
             check_range(&key("center"), p.center[1], -1e3, 1e3)?;
             check_range(&key("wetness"), p.wetness, 0.0, 1.0)?;
-            if let Some(point) = p.point {
-                check_vec(&key("center"), point, -1e4, 1e4)?;
+            // The grid paints in its rest coordinates (`center`), a mesh in the scene (`point`):
+            // a region given in the other's terms would paint about the wrong point.
+            match (p.point, c.mesh.is_some()) {
+                (Some(point), true) => check_vec(&key("center"), point, -1e4, 1e4)?,
+                (None, false) => {}
+                (None, true) => {
+                    return Err(ConfigError::Invalid {
+                        key: key("center"),
+                        message: format!(
+                            "on a mesh cloth `center` has 3 components [x, y, z] (m, scene \
+                             coordinates at t = 0), not the grid's [{}, {}]",
+                            num(p.center[0]),
+                            num(p.center[1])
+                        ),
+                    });
+                }
+                (Some(point), false) => {
+                    return Err(ConfigError::Invalid {
+                        key: key("center"),
+                        message: format!(
+                            "on the grid `center` has 2 components [x, z] (m from the cloth's \
+                             centre at rest), not a mesh's {}",
+                            num3(point)
+                        ),
+                    });
+                }
             }
             match p.shape {
                 PaintShape::Disc(r) => check_open_low(&key("radius"), r, 0.0, 1e3)?,
