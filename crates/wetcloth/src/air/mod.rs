@@ -234,8 +234,9 @@ impl AirModel {
 
     /// For [`Timing::EndOfStep`]: solves the step's pressure from the coasting positions
     /// `coast` (m), measured in `coast_measures`; `held` marks the hands' particles. The
-    /// pockets take the particles' `response` per pascal from an implicit solve if given
-    /// ([`Pockets::solve_end_of_step`]); the thesis' bubble ignores it.
+    /// pockets take the particles' `response` per pascal from an implicit solve if given, with
+    /// the particles its contacts held ([`Pockets::solve_end_of_step`]); the thesis' bubble
+    /// ignores it.
     pub(crate) fn solve_end_of_step(
         &mut self,
         air: &AirParams,
@@ -243,7 +244,7 @@ impl AirModel {
         coast: &Soa,
         coast_measures: &Measures,
         held: &[bool],
-        response: Option<&Soa>,
+        response: Option<(&Soa, &[bool])>,
     ) {
         match self {
             AirModel::Thesis(b) => {

@@ -369,7 +369,9 @@ impl Pockets {
     /// Each free particle of a pocket moves off the surface by its response per pascal times
     /// the pocket's pressure difference: with `response` (m/s per Pa, the step's velocities
     /// answering one pascal on every pocket, from an implicit solve) `dt` times its normal
-    /// part; without, a lone particle's explicit step, `dt^2 S / m`.
+    /// part; without, or for a particle that solve held on a collider (marked in the slice
+    /// beside it: a contact lets go when the pressure lifts it, which a linear solve cannot
+    /// foresee), a lone particle's explicit step, `dt^2 S / m`.
     pub(crate) fn solve_end_of_step(
         &mut self,
         air: &AirParams,
@@ -377,7 +379,7 @@ impl Pockets {
         coast: &Soa,
         coast_measures: &Measures,
         held: &[bool],
-        response: Option<&Soa>,
+        response: Option<(&Soa, &[bool])>,
     ) {
         let Some(pending) = self.pending.take() else {
             return;
@@ -422,15 +424,19 @@ impl Pockets {
             .sticking
             .map_or(crate::math::Vec3::Y, |plane| plane.up);
         let rate_of = |i: usize| match response {
-            None => h_of(i) * s_of(i),
-            Some(w) => {
+            Some((w, touching)) if !touching[i] => {
                 let normal = if self.surface {
                     self.scratch.normal[i]
                 } else {
                     up
                 };
-                pending.dt * normal.dot(w.get(i))
+                // The response to a pascal on every pocket at once: where a neighbouring
+                // pocket's push moves a particle inward, its own pocket's pressure is taken to
+                // hold it still (a volume that shrank as its pressure rose would have no
+                // Boyle solution to find).
+                (pending.dt * normal.dot(w.get(i))).max(0.0)
             }
+            _ => h_of(i) * s_of(i),
         };
         // Each pocket's coasting volume: its cells', plus the depth of its particles coasting
         // into the surface (the contact pushes them back out).

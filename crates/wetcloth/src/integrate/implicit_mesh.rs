@@ -68,8 +68,10 @@ pub(crate) struct ImplicitMesh {
     v: Soa,
     w: Soa,
     per_pascal: Soa,
-    /// The velocities' answer to one pascal on every pocket (m/s per Pa).
+    /// The velocities' answer to one pascal on every pocket (m/s per Pa), and the particles
+    /// a contact held in that solve.
     response: Soa,
+    touching: Vec<bool>,
     force: Soa,
     /// The pressure force of the step, N (for the energy audit's count of its work).
     pressure: Soa,
@@ -212,6 +214,7 @@ impl ImplicitMesh {
             w: Soa::zeros(n),
             per_pascal: Soa::zeros(n),
             response: Soa::zeros(n),
+            touching: vec![false; n],
             force: Soa::zeros(n),
             pressure: Soa::zeros(n),
             free: Soa::zeros(n),
@@ -258,6 +261,7 @@ impl ImplicitMesh {
             .sum::<usize>()
             + self.coast_measures.heap_bytes()
             + self.fixed.capacity() * 2
+            + self.touching.capacity()
             + self.contacts.capacity() * std::mem::size_of::<Contact>()
             + self.normals.capacity() * 24
             + self.known.heap_bytes()
@@ -677,6 +681,9 @@ impl ImplicitMesh {
                     self.solve(&rhs_p, &mut response, tolerance, parallel);
                     self.rhs_p = rhs_p;
                     self.response = response;
+                    for (t, c) in self.touching.iter_mut().zip(&self.contacts) {
+                        *t = *c != Contact::Free;
+                    }
                     self.coast_at(x, dt);
                     self.coast_measures.keep_cells = true;
                     self.coast_measures.remeasure_mesh(
@@ -691,7 +698,7 @@ impl ImplicitMesh {
                         &self.coast,
                         &self.coast_measures,
                         &control.held,
-                        Some(&self.response),
+                        Some((&self.response, &self.touching)),
                     );
                     if let AirLoad::PerParticle(dp) = air.model.load(air.params) {
                         let mut rhs_p = std::mem::take(&mut self.rhs_p);
