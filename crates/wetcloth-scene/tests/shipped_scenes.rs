@@ -393,8 +393,8 @@ fn the_wet_shirt_stays_outside_the_moving_body() {
         .find(|c| c.is_deforming())
         .expect("the mannequin")
         .clone();
+    let per_frame = (1.0 / 30.0 / cfg.simulation.time_step).round() as u64; // steps in 1/30 s
     let mut sim = Simulation::new(cfg).unwrap();
-    let per_frame = 40; // 1/30 s at 1/1200 s
     let mut checked = 0;
     for _ in 0..27 {
         sim.advance(per_frame).unwrap();
