@@ -175,31 +175,7 @@ impl SimConfig {
             check_range(&key("wetness"), p.wetness, 0.0, 1.0)?;
             // The grid paints in its rest coordinates (`center`), a mesh in the scene (`point`):
             // a region given in the other's terms would paint about the wrong point.
-            match (p.point, c.mesh.is_some()) {
-                (Some(point), true) => check_vec(&key("center"), point, -1e4, 1e4)?,
-                (None, false) => {}
-                (None, true) => {
-                    return Err(ConfigError::Invalid {
-                        key: key("center"),
-                        message: format!(
-                            "on a mesh cloth `center` has 3 components [x, y, z] (m, scene \
-                             coordinates at t = 0), not the grid's [{}, {}]",
-                            num(p.center[0]),
-                            num(p.center[1])
-                        ),
-                    });
-                }
-                (Some(point), false) => {
-                    return Err(ConfigError::Invalid {
-                        key: key("center"),
-                        message: format!(
-                            "on the grid `center` has 2 components [x, z] (m from the cloth's \
-                             centre at rest), not a mesh's {}",
-                            num3(point)
-                        ),
-                    });
-                }
-            }
+            check_center(&key("center"), p.point, p.center, c.mesh.is_some())?;
             match p.shape {
                 PaintShape::Disc(r) => check_open_low(&key("radius"), r, 0.0, 1e3)?,
                 PaintShape::Box(h) => {
@@ -273,33 +249,10 @@ impl SimConfig {
         check_range("air.dry_permeability", a.dry_permeability, 0.0, 1.0)?;
         for (i, p) in a.pockets.iter().enumerate() {
             let key = |k: &str| format!("air.pocket[{i}].{k}");
-            match (p.point, c.mesh.is_some()) {
-                (Some(point), true) => check_vec(&key("center"), point, -1e4, 1e4)?,
-                (None, false) => {
-                    check_range(&key("center"), p.center[0], -1e3, 1e3)?;
-                    check_range(&key("center"), p.center[1], -1e3, 1e3)?;
-                }
-                (None, true) => {
-                    return Err(ConfigError::Invalid {
-                        key: key("center"),
-                        message: format!(
-                            "on a mesh cloth `center` has 3 components [x, y, z] (m, scene \
-                             coordinates at t = 0), not the grid's [{}, {}]",
-                            num(p.center[0]),
-                            num(p.center[1])
-                        ),
-                    });
-                }
-                (Some(point), false) => {
-                    return Err(ConfigError::Invalid {
-                        key: key("center"),
-                        message: format!(
-                            "on the grid `center` has 2 components [x, z] (m from the cloth's \
-                             centre at rest), not a mesh's {}",
-                            num3(point)
-                        ),
-                    });
-                }
+            check_center(&key("center"), p.point, p.center, c.mesh.is_some())?;
+            if p.point.is_none() {
+                check_range(&key("center"), p.center[0], -1e3, 1e3)?;
+                check_range(&key("center"), p.center[1], -1e3, 1e3)?;
             }
             check_open_low(&key("radius"), p.radius, 0.0, 1e3)?;
             check_range(&key("amount"), p.amount, 0.0, 1e3)?;
@@ -390,5 +343,36 @@ impl SimConfig {
                 up: p.normal,
             })
         })
+    }
+}
+
+/// A region's `center` in its cloth's terms: 3 components (`point`, scene coordinates at t =
+/// 0) on a mesh cloth, 2 (`center`, from the grid's centre at rest) on the grid.
+fn check_center(
+    key: &str,
+    point: Option<Vec3>,
+    center: [Real; 2],
+    mesh: bool,
+) -> Result<(), ConfigError> {
+    match (point, mesh) {
+        (Some(point), true) => check_vec(key, point, -1e4, 1e4),
+        (None, false) => Ok(()),
+        (None, true) => Err(ConfigError::Invalid {
+            key: key.into(),
+            message: format!(
+                "on a mesh cloth `center` has 3 components [x, y, z] (m, scene coordinates at \
+                 t = 0), not the grid's [{}, {}]",
+                num(center[0]),
+                num(center[1])
+            ),
+        }),
+        (Some(point), false) => Err(ConfigError::Invalid {
+            key: key.into(),
+            message: format!(
+                "on the grid `center` has 2 components [x, z] (m from the cloth's centre at \
+                 rest), not a mesh's {}",
+                num3(point)
+            ),
+        }),
     }
 }
