@@ -3,7 +3,10 @@
 //! over it lifted into the cap that holds its amount), holds its amount with `P V = P_a N` on
 //! every step, and stays one pocket. And the refusals of a seed a mesh cannot take.
 
-use std::sync::Arc;
+#[path = "common/grid_mesh.rs"]
+mod grid_mesh;
+
+use grid_mesh::{grid_mesh, source};
 use wetcloth::air::pockets::{SEED_BULGE, SEED_TOLERANCE};
 use wetcloth::{
     AirModelKind, ClothMeshSource, ClothModel, Integrator, PocketSeed, Real, SimConfig, Simulation,
@@ -11,39 +14,10 @@ use wetcloth::{
 };
 
 /// A regular mesh of `n x n` particles over `size` (m) in the xz plane centred on the origin,
-/// particle `(i, j)` at `j * n + i`, two triangles per cell wound with the normal up (the air
-/// below), as the built-in grid's.
+/// as the built-in grid's (the air below).
 fn flat_mesh(n: usize, size: Real) -> ClothMeshSource {
-    let h = size / (n - 1) as Real;
-    let mut v = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            v.push(Vec3::new(
-                i as Real * h - 0.5 * size,
-                0.0,
-                j as Real * h - 0.5 * size,
-            ));
-        }
-    }
-    let mut faces = Vec::new();
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            let a = (j * n + i) as u32;
-            let (b, c, d) = (a + 1, a + 1 + n as u32, a + n as u32);
-            faces.push(vec![a, c, b]);
-            faces.push(vec![a, d, c]);
-        }
-    }
-    ClothMeshSource {
-        file: "flat.obj".into(),
-        vertices: Arc::new(v),
-        faces: Arc::new(faces),
-        uvs: Arc::new(Vec::new()),
-        face_uvs: Arc::new(Vec::new()),
-        rotation: Vec3::ZERO,
-        scale: 1.0,
-        flip_normals: false,
-    }
+    let (v, t) = grid_mesh(n, size);
+    source(v, t)
 }
 
 /// Which cloth carries the seed.

@@ -49,7 +49,7 @@
 
 use super::boyle::MIN_GAP;
 use super::bubble::solve_boyle;
-use super::seeds::{SeedLayout, square};
+use super::seeds::SeedLayout;
 use super::{AirLoad, Timing};
 use crate::control::Control;
 use crate::math::{Real, Soa};
@@ -1224,7 +1224,7 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, seeds: &SeedLayout, mut
     for a in (0..seeds_len).filter(|&a| sealed[a]) {
         for b in (a + 1..seeds_len).filter(|&b| sealed[b]) {
             let reach = footprint[a] + footprint[b];
-            if square(seeds.between(a, b)) < reach * reach {
+            if seeds.between(a, b).length_squared() < reach * reach {
                 let (ra, rb) = (root(&mut group, a), root(&mut group, b));
                 group[ra.max(rb)] = ra.min(rb);
             }
@@ -1236,7 +1236,7 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, seeds: &SeedLayout, mut
     let mut depth: Vec<Real> = vec![0.0; n];
     for k in 0..n {
         for d in (0..seeds_len).filter(|&d| sealed[d]) {
-            let f = 1.0 - square(seeds.offset(k, d)) / (footprint[d] * footprint[d]);
+            let f = 1.0 - seeds.offset(k, d).length_squared() / (footprint[d] * footprint[d]);
             if f > depth[k] {
                 depth[k] = f;
                 disc[k] = d as u32;
@@ -1272,7 +1272,7 @@ pub(crate) fn lift_seeds(air: &AirParams, model: &Model, seeds: &SeedLayout, mut
         let d = disc[k] as usize;
         let radius = footprint[d];
         let offset = seeds.across(seeds.offset(k, d), across[d]);
-        let r = square(offset).sqrt();
+        let r = offset.length();
         let sphere = radius * (1.0 + b * b) / (2.0 * b);
         let phi = 2.0 * b.atan() * r / radius;
         let half = (0.5 * phi).sin();

@@ -39,12 +39,6 @@ enum Bounds {
     Mesh { border: Vec<u32>, spacing: Real },
 }
 
-/// `v . v`, summed x, y, z in that order (on the grid, `y` is 0: the disc's `dx^2 + dz^2`).
-#[inline]
-pub(crate) fn square(v: Vec3) -> Real {
-    v.x * v.x + v.y * v.y + v.z * v.z
-}
-
 impl SeedLayout {
     /// The seeds of `config` on the cloth of `model` (built from it). Empty without the pockets
     /// model or seeds: every particle in no seed.
@@ -110,7 +104,7 @@ impl SeedLayout {
                 air.pockets
                     .iter()
                     .enumerate()
-                    .position(|(d, s)| square(layout.offset(k, d)) <= s.radius * s.radius)
+                    .position(|(d, s)| layout.offset(k, d).length_squared() <= s.radius * s.radius)
                     .map_or(NONE, |d| d as u32)
             })
             .collect();
@@ -146,7 +140,7 @@ impl SeedLayout {
             Bounds::Mesh { border, spacing } => {
                 let nearest = border
                     .iter()
-                    .map(|&b| square(self.at[b as usize] - c))
+                    .map(|&b| (self.at[b as usize] - c).length_squared())
                     .fold(Real::INFINITY, Real::min);
                 nearest.sqrt() - 2.0 * spacing
             }

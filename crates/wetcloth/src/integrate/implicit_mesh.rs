@@ -811,13 +811,7 @@ impl ImplicitMesh {
             let k = g.particle;
             match target {
                 Some(target) => {
-                    let v0 = (x.get(k) - prev.get(k)) / dt;
-                    let mut av = Vec3::ZERO;
-                    for s in self.a.start[k] as usize..self.a.start[k + 1] as usize {
-                        av += self.a.val[s] * self.v.get(self.a.col[s] as usize);
-                    }
-                    let rhs = v0 * model.mass(k) + self.force.get(k) * dt;
-                    g.force = (av - rhs) / dt;
+                    g.force = self.residual(model, x, prev, dt, k);
                     work += checks::work(g.force, x.get(k), *target).abs();
                 }
                 None => g.force = Vec3::ZERO,

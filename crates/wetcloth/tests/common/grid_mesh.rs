@@ -1,5 +1,5 @@
 //! The built-in grid as a mesh cloth, shared by the mesh tests (`#[path]`-included by
-//! `tests/cloth_mesh.rs` and `tests/implicit_energy.rs`).
+//! `tests/cloth_mesh.rs`, `tests/implicit_energy.rs` and `tests/seeded_mesh.rs`).
 
 use std::sync::Arc;
 use wetcloth::{ClothMeshSource, Real, Vec3};
