@@ -130,19 +130,7 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     for p in &c.paint {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[cloth.paint]]");
-        match p.point {
-            Some(c) => {
-                let _ = writeln!(o, "center = {}  # m, scene at t = 0", v3(c));
-            }
-            None => {
-                let _ = writeln!(
-                    o,
-                    "center = [{}, {}]  # m, rest (x, z)",
-                    f(p.center[0]),
-                    f(p.center[1])
-                );
-            }
-        }
+        let _ = writeln!(o, "{}", center_line(p.point, p.center));
         match p.shape {
             PaintShape::Disc(r) => {
                 let _ = writeln!(o, "radius = {}  # m", f(r));
@@ -199,19 +187,7 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
     for p in &a.pockets {
         let _ = writeln!(o);
         let _ = writeln!(o, "[[air.pocket]]");
-        match p.point {
-            Some(c) => {
-                let _ = writeln!(o, "center = {}  # m, scene at t = 0", v3(c));
-            }
-            None => {
-                let _ = writeln!(
-                    o,
-                    "center = [{}, {}]  # m, rest (x, z)",
-                    f(p.center[0]),
-                    f(p.center[1])
-                );
-            }
-        }
+        let _ = writeln!(o, "{}", center_line(p.point, p.center));
         let _ = writeln!(o, "radius = {}  # m", f(p.radius));
         let _ = writeln!(o, "amount = {}  # m^3 at atmospheric pressure", f(p.amount));
     }
@@ -340,4 +316,16 @@ pub fn to_toml(name: &str, config: &SimConfig) -> String {
         };
     }
     o
+}
+
+/// A paint region's or a seed's `center` line: 3 components on a mesh (`point`), the grid's 2.
+fn center_line(point: Option<Vec3>, center: [Real; 2]) -> String {
+    match point {
+        Some(c) => format!("center = {}  # m, scene at t = 0", v3(c)),
+        None => format!(
+            "center = [{}, {}]  # m, rest (x, z)",
+            f(center[0]),
+            f(center[1])
+        ),
+    }
 }
