@@ -426,17 +426,18 @@ impl MeshSprings {
         r.start[particles.start] as usize..r.start[last + 1] as usize
     }
 
-    /// The forces on their first ends of the springs `springs` (run order, see
-    /// [`MeshSprings::run_span`]) at positions `x` into `out` (N), the same bits as
-    /// [`MeshSprings::forces_into`] gives each; the arithmetic vectorises over lanes of springs.
+    /// The forces of the springs `springs` (run order, see [`MeshSprings::run_span`]) at
+    /// positions `x` into `out` (N), two per spring: on its first end, then on its second (the
+    /// same bits as [`MeshSprings::forces_into`] gives each, and their sign flipped); the
+    /// arithmetic vectorises over lanes of springs.
     pub fn run_forces(&self, x: &Soa, springs: std::ops::Range<usize>, out: &mut [Vec3]) {
         const LANE: usize = 64;
         let r = &self.run;
         let (mut dx, mut dy, mut dz) = ([0.0; LANE], [0.0; LANE], [0.0; LANE]);
         let mut f = [0.0; LANE];
-        for (c, o) in out[..springs.len()].chunks_mut(LANE).enumerate() {
+        for (c, o) in out[..2 * springs.len()].chunks_mut(2 * LANE).enumerate() {
             let s0 = springs.start + c * LANE;
-            let m = o.len();
+            let m = o.len() / 2;
             let (a, b) = (&r.a[s0..s0 + m], &r.b[s0..s0 + m]);
             for i in 0..m {
                 let (a, b) = (a[i] as usize, b[i] as usize);
@@ -450,8 +451,10 @@ impl MeshSprings {
                 // A spring of no length has no direction: no force.
                 f[i] = if l > 0.0 { k[i] * (l - l0[i]) / l } else { 0.0 };
             }
-            for i in 0..m {
-                o[i] = Vec3::new(dx[i] * f[i], dy[i] * f[i], dz[i] * f[i]);
+            for (i, o) in o.chunks_exact_mut(2).enumerate() {
+                let v = Vec3::new(dx[i] * f[i], dy[i] * f[i], dz[i] * f[i]);
+                o[0] = v;
+                o[1] = -v;
             }
         }
     }
@@ -461,17 +464,42 @@ impl MeshSprings {
     /// [`MeshSprings::gather`].
     #[inline]
     pub fn gather_run(&self, forces: &[Vec3], first: usize, k: usize) -> Vec3 {
-        let (mut fx, mut fy, mut fz) = (0.0, 0.0, 0.0);
-        let of = &self.run.of[self.start[k] as usize..self.start[k + 1] as usize];
-        for &e in of {
-            // The second end takes the force with its sign flipped (exact, as `* -1.0`).
-            let flip = u64::from(e & 1) << 63;
-            let v = forces[(e >> 1) as usize - first];
-            fx += Real::from_bits(v.x.to_bits() ^ flip);
-            fy += Real::from_bits(v.y.to_bits() ^ flip);
-            fz += Real::from_bits(v.z.to_bits() ^ flip);
+        let mut f = Vec3::ZERO;
+        let base = 2 * first;
+        for &e in &self.run.of[self.start[k] as usize..self.start[k + 1] as usize] {
+            f += forces[e as usize - base];
         }
-        Vec3::new(fx, fy, fz)
+        f
+    }
+
+    /// [`MeshSprings::gather_run`] of the particles `k0..k0 + out.len()` into `out`, four
+    /// particles side by side (four independent sums, each in its own spring order).
+    pub fn gather_block(&self, forces: &[Vec3], first: usize, k0: usize, out: &mut [Vec3]) {
+        let base = 2 * first;
+        let of = &self.run.of;
+        let mut quads = out.chunks_exact_mut(4);
+        for (q, o) in (&mut quads).enumerate() {
+            let k = k0 + 4 * q;
+            let s: [usize; 5] = std::array::from_fn(|j| self.start[k + j] as usize);
+            let common = (0..4).map(|j| s[j + 1] - s[j]).min().unwrap_or(0);
+            let mut f = [Vec3::ZERO; 4];
+            for t in 0..common {
+                for j in 0..4 {
+                    f[j] += forces[of[s[j] + t] as usize - base];
+                }
+            }
+            for j in 0..4 {
+                for &e in &of[s[j] + common..s[j + 1]] {
+                    f[j] += forces[e as usize - base];
+                }
+            }
+            o.copy_from_slice(&f);
+        }
+        let rest = quads.into_remainder().len();
+        let done = out.len() - rest;
+        for (i, o) in out[done..].iter_mut().enumerate() {
+            *o = self.gather_run(forces, first, k0 + done + i);
+        }
     }
 
     /// Hooke's force of spring `s` on its first particle at positions `x`, N (eq. 3.6).

@@ -67,8 +67,8 @@ fn pass(
     let e = s + force.x.len();
     let (model, springs, x) = (c.model, c.springs, c.x);
     let span = springs.run_span(s..e);
-    if buf.len() < span.len() {
-        buf.resize(span.len(), Vec3::ZERO);
+    if buf.len() < 2 * span.len() {
+        buf.resize(2 * span.len(), Vec3::ZERO);
     }
     let mut done = span.start;
     let RowMut {
@@ -81,14 +81,17 @@ fn pass(
         y: py,
         z: pz,
     } = to;
+    let mut sums = [Vec3::ZERO; BLOCK];
     let mut b0 = s;
     while b0 < e {
         let b1 = (b0 + BLOCK).min(e);
         let need = springs.run_span(b0..b1).end;
         if need > done {
-            springs.run_forces(x, done..need, &mut buf[done - span.start..]);
+            springs.run_forces(x, done..need, &mut buf[2 * (done - span.start)..]);
             done = need;
         }
+        let sums = &mut sums[..b1 - b0];
+        springs.gather_block(buf, span.start, b0, sums);
         for k in b0..b1 {
             let i = k - s;
             let here = x.get(k);
@@ -96,7 +99,7 @@ fn pass(
             let m = model.mass(k);
             let mut f =
                 gravity::weight_and_damping(m, model.gravity, c.damping_per_dt, here - before)
-                    + springs.gather_run(buf, span.start, k);
+                    + sums[k - b0];
             if let Some((fabric, fs)) = c.fabric {
                 f += fabric.gather(fs, k);
             }
@@ -140,7 +143,7 @@ pub(crate) struct MeshVerlet {
     pub force: Soa,
     /// The pressure force of the step, N (end-of-step pressure).
     pressure: Soa,
-    /// Each part's springs' forces on their first ends (run order), N.
+    /// Each part's springs' forces on their two ends (run order), N.
     bufs: Vec<Vec<Vec3>>,
     /// The membrane and bending elements' forces (`model = "membrane"`).
     fabric: FabricScratch,
