@@ -1,11 +1,15 @@
 //! Position Verlet (thesis eq. 3.1) on a cloth of any shape: the general path of
 //! [`super::verlet`], chosen once per step when the cloth is a mesh.
 //!
-//! The same step as the grid's, particle by particle instead of row by row: the forces
-//! (gravity and damping, the mesh's springs, the pressure over each particle's lumped area
-//! along its area-weighted normal), the move, the contacts, then the hand. Each particle's
-//! force is gathered from its own springs in a fixed order (no scattered sums), so the passes
-//! split over threads give the same bits as one thread.
+//! The same step as the grid's, by blocks of particles instead of rows: the forces (gravity
+//! and damping, the mesh's springs, the pressure over each particle's lumped area along its
+//! area-weighted normal), the move, the contacts, then the hand. One pass does the forces,
+//! the move and the plane contacts block by block, computing just before each block the
+//! springs it needs (the springs ordered by their larger end, so that those are one run), while
+//! the block and its springs are in cache; seams, soft attachments, a pressure of the step's
+//! end and colliders other than planes take their own passes after it. Each particle's force
+//! is gathered from its own springs in a fixed order (no scattered sums), so the passes split
+//! over threads give the same bits as one thread.
 
 use super::{Air, Fused};
 use crate::air::{AirLoad, Timing};
