@@ -129,15 +129,9 @@ impl Fabric {
                 .tri
                 .par_chunks_mut(PER_TASK)
                 .enumerate()
-                .for_each(|(c, out)| {
-                    for (i, o) in out.iter_mut().enumerate() {
-                        *o = m.forces(x, c * PER_TASK + i);
-                    }
-                });
+                .for_each(|(c, out)| m.forces_run(x, c * PER_TASK, out));
         } else {
-            for (t, o) in scratch.tri.iter_mut().enumerate() {
-                *o = m.forces(x, t);
-            }
+            m.forces_run(x, 0, &mut scratch.tri);
         }
         let Some(b) = &self.bending else {
             scratch.angles.clear();
@@ -146,21 +140,14 @@ impl Fabric {
         };
         let nh = b.hinges.len();
         scratch.angles.resize(nh, (0.0, [Vec3::ZERO; 4]));
-        let angle = |h: usize| b.angle_change(x, h);
         if parallel && nh > 2 * PER_TASK {
             scratch
                 .angles
                 .par_chunks_mut(PER_TASK)
                 .enumerate()
-                .for_each(|(c, out)| {
-                    for (i, o) in out.iter_mut().enumerate() {
-                        *o = angle(c * PER_TASK + i);
-                    }
-                });
+                .for_each(|(c, out)| b.angles_run(x, c * PER_TASK, out));
         } else {
-            for (h, o) in scratch.angles.iter_mut().enumerate() {
-                *o = angle(h);
-            }
+            b.angles_run(x, 0, &mut scratch.angles);
         }
         scratch.moments.resize(nh, 0.0);
         let angles = &scratch.angles;

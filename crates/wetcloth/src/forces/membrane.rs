@@ -166,6 +166,48 @@ impl Membrane {
         ]
     }
 
+    /// The forces of triangles `first..first + out.len()` at positions `x` into `out`, the
+    /// same bits as [`Membrane::forces`] gives each, over lanes of triangles (the corners
+    /// gathered first, then the arithmetic, vectorised).
+    pub fn forces_run(&self, x: &Soa, first: usize, out: &mut [[Vec3; 3]]) {
+        const LANE: usize = 32;
+        for (c, out) in out.chunks_mut(LANE).enumerate() {
+            let t0 = first + c * LANE;
+            let m = out.len();
+            let mut p = [[Vec3::ZERO; LANE]; 3];
+            for (i, tri) in self.triangles[t0..t0 + m].iter().enumerate() {
+                for v in 0..3 {
+                    p[v][i] = x.get(tri[v] as usize);
+                }
+            }
+            let (grads, areas) = (&self.grad[t0..t0 + m], &self.area[t0..t0 + m]);
+            let mut f = [[Vec3::ZERO; LANE]; 3];
+            for i in 0..m {
+                // As `deformed` and `forces`, operation for operation.
+                let g = &grads[i];
+                let f1 = p[0][i] * g[0][0] + p[1][i] * g[1][0] + p[2][i] * g[2][0];
+                let f2 = p[0][i] * g[0][1] + p[1][i] * g[1][1] + p[2][i] * g[2][1];
+                let e = [
+                    0.5 * (f1.dot(f1) - 1.0),
+                    0.5 * (f2.dot(f2) - 1.0),
+                    0.5 * f1.dot(f2),
+                ];
+                let s = self.material.stress(e);
+                let p1 = f1 * s[0] + f2 * s[2];
+                let p2 = f1 * s[2] + f2 * s[1];
+                let a = -areas[i];
+                for v in 0..3 {
+                    f[v][i] = (p1 * g[v][0] + p2 * g[v][1]) * a;
+                }
+            }
+            for (i, o) in out.iter_mut().enumerate() {
+                for v in 0..3 {
+                    o[v] = f[v][i];
+                }
+            }
+        }
+    }
+
     /// Triangle `t`'s elastic energy at positions `x`, J.
     #[inline]
     pub fn energy_of(&self, x: &Soa, t: usize) -> Real {

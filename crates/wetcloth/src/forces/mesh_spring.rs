@@ -46,6 +46,79 @@ pub struct MeshSprings {
     pub start: Vec<u32>,
     /// See [`MeshSprings::start`].
     pub of: Vec<u32>,
+    /// The springs in the order the explicit step computes them ([`MeshSprings::run_forces`]):
+    /// by their larger end, then by index, so that the springs a run of particles needs are
+    /// one run of this order.
+    run: SpringRun,
+}
+
+/// The springs in run order, as contiguous arrays (see [`MeshSprings::run_forces`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+struct SpringRun {
+    /// Each spring's first and second end.
+    a: Vec<u32>,
+    b: Vec<u32>,
+    /// Rest length (m) and stiffness (N/m).
+    rest: Vec<Real>,
+    stiffness: Vec<Real>,
+    /// The springs of particle `k` as [`MeshSprings::of`] lists them (spring order), each as
+    /// `2 r + e` with `r` the spring's place in run order.
+    of: Vec<u32>,
+    /// `start[m]`: how many springs have their larger end below particle `m`.
+    start: Vec<u32>,
+    /// `ready[k]`: the largest end of a spring of particles `0..=k` (at least `k`).
+    ready: Vec<u32>,
+}
+
+impl SpringRun {
+    fn new(n: usize, ends: &[[u32; 2]], rest: &[Real], stiffness: &[Real], of: &[u32]) -> Self {
+        let mut order: Vec<u32> = (0..ends.len() as u32).collect();
+        order.sort_by_key(|&s| (ends[s as usize][0].max(ends[s as usize][1]), s));
+        let mut place = vec![0u32; ends.len()];
+        for (r, &s) in order.iter().enumerate() {
+            place[s as usize] = r as u32;
+        }
+        let mut start = vec![0u32; n + 1];
+        for &[a, b] in ends {
+            start[a.max(b) as usize + 1] += 1;
+        }
+        for k in 0..n {
+            start[k + 1] += start[k];
+        }
+        let mut ready: Vec<u32> = (0..n as u32).collect();
+        for &[a, b] in ends {
+            let top = a.max(b);
+            for v in [a, b] {
+                ready[v as usize] = ready[v as usize].max(top);
+            }
+        }
+        for k in 1..n {
+            ready[k] = ready[k].max(ready[k - 1]);
+        }
+        let pick = |v: &[Real]| order.iter().map(|&s| v[s as usize]).collect();
+        Self {
+            a: order.iter().map(|&s| ends[s as usize][0]).collect(),
+            b: order.iter().map(|&s| ends[s as usize][1]).collect(),
+            rest: pick(rest),
+            stiffness: pick(stiffness),
+            of: of
+                .iter()
+                .map(|&e| 2 * place[(e >> 1) as usize] + (e & 1))
+                .collect(),
+            start,
+            ready,
+        }
+    }
+
+    fn heap_bytes(&self) -> usize {
+        (self.a.capacity()
+            + self.b.capacity()
+            + self.of.capacity()
+            + self.start.capacity()
+            + self.ready.capacity())
+            * 4
+            + (self.rest.capacity() + self.stiffness.capacity()) * 8
+    }
 }
 
 /// The springs across edges' share of the shear membrane: each takes `w = ACROSS_SHARE k_h
@@ -224,7 +297,7 @@ impl MeshSprings {
                 w[idx[e]] += share[e];
             }
         }
-        let stiffness = w.iter().zip(&rest).map(|(&w, &l)| w / (l * l)).collect();
+        let stiffness: Vec<Real> = w.iter().zip(&rest).map(|(&w, &l)| w / (l * l)).collect();
         let n = mesh.len();
         let mut start = vec![0u32; n + 1];
         for &[a, b] in &ends {
@@ -242,6 +315,7 @@ impl MeshSprings {
                 fill[v as usize] += 1;
             }
         }
+        let run = SpringRun::new(n, &ends, &rest, &stiffness, &of);
         Self {
             ends,
             rest,
@@ -249,6 +323,7 @@ impl MeshSprings {
             edge_count,
             start,
             of,
+            run,
         }
     }
 
@@ -266,6 +341,7 @@ impl MeshSprings {
             rest,
             start: vec![0; mesh.len() + 1],
             of: Vec::new(),
+            run: SpringRun::default(),
         }
     }
 
@@ -338,6 +414,94 @@ impl MeshSprings {
         f
     }
 
+    /// The springs, in run order, that particles `particles` need: every spring of theirs is
+    /// in it (empty without springs).
+    #[inline]
+    pub fn run_span(&self, particles: std::ops::Range<usize>) -> std::ops::Range<usize> {
+        if !self.active() || particles.is_empty() {
+            return 0..0;
+        }
+        let r = &self.run;
+        let last = r.ready[particles.end - 1] as usize;
+        r.start[particles.start] as usize..r.start[last + 1] as usize
+    }
+
+    /// The forces of the springs `springs` (run order, see [`MeshSprings::run_span`]) at
+    /// positions `x` into `out` (N), two per spring: on its first end, then on its second (the
+    /// same bits as [`MeshSprings::forces_into`] gives each, and their sign flipped); the
+    /// arithmetic vectorises over lanes of springs.
+    pub fn run_forces(&self, x: &Soa, springs: std::ops::Range<usize>, out: &mut [Vec3]) {
+        const LANE: usize = 64;
+        let r = &self.run;
+        let (mut dx, mut dy, mut dz) = ([0.0; LANE], [0.0; LANE], [0.0; LANE]);
+        let mut f = [0.0; LANE];
+        for (c, o) in out[..2 * springs.len()].chunks_mut(2 * LANE).enumerate() {
+            let s0 = springs.start + c * LANE;
+            let m = o.len() / 2;
+            let (a, b) = (&r.a[s0..s0 + m], &r.b[s0..s0 + m]);
+            for i in 0..m {
+                let (a, b) = (a[i] as usize, b[i] as usize);
+                dx[i] = x.x[b] - x.x[a];
+                dy[i] = x.y[b] - x.y[a];
+                dz[i] = x.z[b] - x.z[a];
+            }
+            let (k, l0) = (&r.stiffness[s0..s0 + m], &r.rest[s0..s0 + m]);
+            for i in 0..m {
+                let l = (dx[i] * dx[i] + dy[i] * dy[i] + dz[i] * dz[i]).sqrt();
+                // A spring of no length has no direction: no force.
+                f[i] = if l > 0.0 { k[i] * (l - l0[i]) / l } else { 0.0 };
+            }
+            for (i, o) in o.chunks_exact_mut(2).enumerate() {
+                let v = Vec3::new(dx[i] * f[i], dy[i] * f[i], dz[i] * f[i]);
+                o[0] = v;
+                o[1] = -v;
+            }
+        }
+    }
+
+    /// The force on particle `k` of the springs' forces `forces` ([`MeshSprings::run_forces`]
+    /// of a span starting at run place `first`), summed in spring order: the same bits as
+    /// [`MeshSprings::gather`].
+    #[inline]
+    pub fn gather_run(&self, forces: &[Vec3], first: usize, k: usize) -> Vec3 {
+        let mut f = Vec3::ZERO;
+        let base = 2 * first;
+        for &e in &self.run.of[self.start[k] as usize..self.start[k + 1] as usize] {
+            f += forces[e as usize - base];
+        }
+        f
+    }
+
+    /// [`MeshSprings::gather_run`] of the particles `k0..k0 + out.len()` into `out`, four
+    /// particles side by side (four independent sums, each in its own spring order).
+    pub fn gather_block(&self, forces: &[Vec3], first: usize, k0: usize, out: &mut [Vec3]) {
+        let base = 2 * first;
+        let of = &self.run.of;
+        let mut quads = out.chunks_exact_mut(4);
+        for (q, o) in (&mut quads).enumerate() {
+            let k = k0 + 4 * q;
+            let s: [usize; 5] = std::array::from_fn(|j| self.start[k + j] as usize);
+            let common = (0..4).map(|j| s[j + 1] - s[j]).min().unwrap_or(0);
+            let mut f = [Vec3::ZERO; 4];
+            for t in 0..common {
+                for j in 0..4 {
+                    f[j] += forces[of[s[j] + t] as usize - base];
+                }
+            }
+            for j in 0..4 {
+                for &e in &of[s[j] + common..s[j + 1]] {
+                    f[j] += forces[e as usize - base];
+                }
+            }
+            o.copy_from_slice(&f);
+        }
+        let rest = quads.into_remainder().len();
+        let done = out.len() - rest;
+        for (i, o) in out[done..].iter_mut().enumerate() {
+            *o = self.gather_run(forces, first, k0 + done + i);
+        }
+    }
+
     /// Hooke's force of spring `s` on its first particle at positions `x`, N (eq. 3.6).
     #[inline]
     pub fn force(&self, x: &Soa, s: usize) -> Vec3 {
@@ -397,6 +561,7 @@ impl MeshSprings {
         self.ends.capacity() * 8
             + (self.rest.capacity() + self.stiffness.capacity()) * 8
             + (self.start.capacity() + self.of.capacity()) * 4
+            + self.run.heap_bytes()
     }
 }
 

@@ -1,11 +1,15 @@
 //! Position Verlet (thesis eq. 3.1) on a cloth of any shape: the general path of
 //! [`super::verlet`], chosen once per step when the cloth is a mesh.
 //!
-//! The same step as the grid's, particle by particle instead of row by row: the forces
-//! (gravity and damping, the mesh's springs, the pressure over each particle's lumped area
-//! along its area-weighted normal), the move, the contacts, then the hand. Each particle's
-//! force is gathered from its own springs in a fixed order (no scattered sums), so the passes
-//! split over threads give the same bits as one thread.
+//! The same step as the grid's, by blocks of particles instead of rows: the forces (gravity
+//! and damping, the mesh's springs, the pressure over each particle's lumped area along its
+//! area-weighted normal), the move, the contacts, then the hand. One pass does the forces,
+//! the move and the plane contacts block by block, computing just before each block the
+//! springs it needs (the springs ordered by their larger end, so that those are one run), while
+//! the block and its springs are in cache; seams, soft attachments, a pressure of the step's
+//! end and colliders other than planes take their own passes after it. Each particle's force
+//! is gathered from its own springs in a fixed order (no scattered sums), so the passes split
+//! over threads give the same bits as one thread.
 
 use super::{Air, Fused};
 use crate::air::{AirLoad, Timing};
@@ -13,7 +17,7 @@ use crate::checks;
 use crate::collide::contact;
 use crate::collide::plane;
 use crate::control::Control;
-use crate::forces::fabric::FabricScratch;
+use crate::forces::fabric::{Fabric, FabricScratch};
 use crate::forces::gravity;
 use crate::forces::mesh_spring::MeshSprings;
 use crate::math::{Real, RowMut, Soa, Vec3, row};
@@ -26,6 +30,116 @@ use rayon::prelude::*;
 /// Particles per task when a pass is split over the pool.
 const CHUNK: usize = 2048;
 
+/// Particles per block of the fused pass: the springs a block needs are computed just before
+/// it, so they and its particles are still in cache when it gathers them.
+const BLOCK: usize = 64;
+
+/// What the fused pass reads.
+struct PassConsts<'a> {
+    model: &'a Model,
+    springs: &'a MeshSprings,
+    /// Positions at the step's start, m.
+    x: &'a Soa,
+    /// The fabric and its elements' forces of the step, if any.
+    fabric: Option<(&'a Fabric, &'a FabricScratch)>,
+    /// The pressure forces to add before the move, N.
+    pressure: Option<&'a Soa>,
+    /// Whether the pass moves the particles (nothing else adds to their forces first).
+    moves: bool,
+    /// Whether the pass resolves the contacts (only planes, no exempt particles).
+    collides: bool,
+    /// `dt^2`, halved on a Taylor start, s^2.
+    dt2: Real,
+    /// `damping / dt`, 1/s^2.
+    damping_per_dt: Real,
+}
+
+/// The fused pass over the particles `s..s + force.x.len()`: block by block, the springs
+/// the block needs ([`MeshSprings::run_forces`] into `buf`, each computed once per part),
+/// each particle's force (gravity and damping, springs, fabric, pressure, in that order) into
+/// `force`, and, if `c.moves`, its move into `to` (holding the previous positions) and, if
+/// `c.collides`, its contacts with the planes. Each particle's result does not depend on how
+/// the particles are split into parts.
+fn pass(
+    c: &PassConsts<'_>,
+    s: usize,
+    force: RowMut<'_>,
+    to: RowMut<'_>,
+    contact: &mut [bool],
+    buf: &mut Vec<Vec3>,
+) {
+    let e = s + force.x.len();
+    let (model, springs, x) = (c.model, c.springs, c.x);
+    let span = springs.run_span(s..e);
+    if buf.len() < 2 * span.len() {
+        buf.resize(2 * span.len(), Vec3::ZERO);
+    }
+    let mut done = span.start;
+    let RowMut {
+        x: fx,
+        y: fy,
+        z: fz,
+    } = force;
+    let RowMut {
+        x: px,
+        y: py,
+        z: pz,
+    } = to;
+    let mut sums = [Vec3::ZERO; BLOCK];
+    let mut b0 = s;
+    while b0 < e {
+        let b1 = (b0 + BLOCK).min(e);
+        let need = springs.run_span(b0..b1).end;
+        if need > done {
+            springs.run_forces(x, done..need, &mut buf[2 * (done - span.start)..]);
+            done = need;
+        }
+        let sums = &mut sums[..b1 - b0];
+        springs.gather_block(buf, span.start, b0, sums);
+        for k in b0..b1 {
+            let i = k - s;
+            let here = x.get(k);
+            let before = Vec3::new(px[i], py[i], pz[i]);
+            let m = model.mass(k);
+            let mut f =
+                gravity::weight_and_damping(m, model.gravity, c.damping_per_dt, here - before)
+                    + sums[k - b0];
+            if let Some((fabric, fs)) = c.fabric {
+                f += fabric.gather(fs, k);
+            }
+            if let Some(p) = c.pressure {
+                f += p.get(k);
+            }
+            (fx[i], fy[i], fz[i]) = (f.x, f.y, f.z);
+            if c.moves {
+                let h = c.dt2 / m;
+                let next = here + (here - before) + f * h;
+                (px[i], py[i], pz[i]) = (next.x, next.y, next.z);
+            }
+        }
+        if c.collides {
+            let (i0, i1) = (b0 - s, b1 - s);
+            let hit = &mut contact[i0..i1];
+            hit.fill(false);
+            let here = crate::math::RowRef {
+                x: &x.x[b0..b1],
+                y: &x.y[b0..b1],
+                z: &x.z[b0..b1],
+            };
+            let mut next = RowMut {
+                x: &mut px[i0..i1],
+                y: &mut py[i0..i1],
+                z: &mut pz[i0..i1],
+            };
+            let scale = model.friction_scale.as_deref().map(|f| &f[b0..b1]);
+            for p in &model.planes {
+                plane::contact_row_scaled(p, here, &mut next, hit, scale);
+            }
+        }
+        b0 = b1;
+    }
+}
+
 /// Scratch of the mesh path.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct MeshVerlet {
@@ -33,8 +147,8 @@ pub(crate) struct MeshVerlet {
     pub force: Soa,
     /// The pressure force of the step, N (end-of-step pressure).
     pressure: Soa,
-    /// Each spring's force on its first end, N.
-    spring_force: Vec<Vec3>,
+    /// Each part's springs' forces on their two ends (run order), N.
+    bufs: Vec<Vec<Vec3>>,
     /// The membrane and bending elements' forces (`model = "membrane"`).
     fabric: FabricScratch,
     /// The grabbed particles' previous positions, m.
@@ -188,7 +302,7 @@ impl MeshVerlet {
         Self {
             force: Soa::zeros(n),
             pressure: Soa::zeros(n),
-            spring_force: Vec::new(),
+            bufs: Vec::new(),
             fabric: FabricScratch::default(),
             saved_prev: Vec::new(),
             coast: Measures::for_layout(layout, false),
@@ -199,7 +313,7 @@ impl MeshVerlet {
     pub fn heap_bytes(&self) -> usize {
         self.force.heap_bytes()
             + self.pressure.heap_bytes()
-            + self.spring_force.capacity() * 24
+            + self.bufs.iter().map(|b| b.capacity() * 24).sum::<usize>()
             + self.fabric.heap_bytes()
             + self.saved_prev.capacity() * 24
             + self.coast.heap_bytes()
@@ -239,36 +353,9 @@ impl MeshVerlet {
         let x = &state.x;
         let damping_per_dt = model.damping / dt;
         let law = model.pressure_force;
-        // Every force but the pressure (gravity and damping, eq. 3.3; springs, eq. 3.6).
-        springs.forces_into(x, &mut self.spring_force, parallel);
+        // The membrane and bending elements' forces, element by element (gathered below).
         if let Some(fabric) = &model.fabric {
             fabric.forces_into(x, &mut self.fabric, parallel);
-        }
-        {
-            let prev: &Soa = prev;
-            let sf = &self.spring_force;
-            let (fabric, fs) = (model.fabric.as_deref(), &self.fabric);
-            for_each(&mut self.force, parallel, |k| {
-                let v = x.get(k) - prev.get(k);
-                let f =
-                    gravity::weight_and_damping(model.mass(k), model.gravity, damping_per_dt, v)
-                        + springs.gather(sf, k);
-                match fabric {
-                    Some(fabric) => f + fabric.gather(fs, k),
-                    None => f,
-                }
-            });
-        }
-        // The seams' springs and damping (velocities as the damping above takes them).
-        if let Some(seams) = &model.seams {
-            let prev: &Soa = prev;
-            seams.add_forces(x, |k| (x.get(k) - prev.get(k)) / dt, &mut self.force);
-        }
-        // The soft attachments' springs to their points at the step's start.
-        for t in &mut control.tethers {
-            let k = t.particle;
-            t.force = t.pull(x.get(k), t.points[0]);
-            self.force.set(k, self.force.get(k) + t.force);
         }
         // The pressure (eq. 3.7): of the step's start, or of its end from the coasting
         // positions.
@@ -289,57 +376,150 @@ impl MeshVerlet {
                 }
             });
         };
+        let now = matches!(air.timing, Timing::Now);
         let mut pressure_acts = true;
-        match air.timing {
-            Timing::Now => {
-                let (p, each) = load_of(&air);
-                let acts = p != 0.0 || each.is_some();
-                pressure_acts = acts;
-                if acts {
-                    pressure_now(&mut self.pressure, p, each);
-                }
-                for k in 0..n {
-                    let mut f = self.force.get(k);
-                    if acts {
-                        f += self.pressure.get(k);
-                        self.force.set(k, f);
-                    }
-                    let h = dt2 / model.mass(k);
-                    let (here, before) = (x.get(k), prev.get(k));
-                    prev.set(k, here + (here - before) + f * h);
-                }
-            }
-            Timing::EndOfStep => {
-                for k in 0..n {
-                    let h = dt2 / model.mass(k);
-                    let (here, before) = (x.get(k), prev.get(k));
-                    prev.set(k, here + (here - before) + self.force.get(k) * h);
-                }
-                for (k, target) in control.active() {
-                    prev.set(k, target);
-                }
-                self.coast.keep_cells = fused.measures.keep_cells;
-                self.coast
-                    .remeasure_mesh(model.layout(), prev, model.sticking, model.radius);
-                air.model.solve_end_of_step(
-                    air.params,
-                    model,
-                    prev,
-                    &self.coast,
-                    &control.held,
-                    None,
-                );
-                let (p, each) = load_of(&air);
+        if now {
+            let (p, each) = load_of(&air);
+            pressure_acts = p != 0.0 || each.is_some();
+            if pressure_acts {
                 pressure_now(&mut self.pressure, p, each);
-                for k in 0..n {
-                    let fp = self.pressure.get(k);
-                    self.force.set(k, self.force.get(k) + fp);
-                    prev.set(k, prev.get(k) + fp * (dt2 / model.mass(k)));
+            }
+        }
+        // Every force but the seams', the attachments' and a pressure of the step's end
+        // (gravity and damping, eq. 3.3; springs, eq. 3.6) in one pass over blocks of
+        // particles; when nothing else adds to a particle's force before its move, the pass
+        // moves it too, and when only planes are there to meet, resolves its contacts.
+        let moves = now && model.seams.is_none() && control.tethers.is_empty();
+        let collides = moves
+            && model.non_planes.is_empty()
+            && model.moving.is_empty()
+            && model.contact_exempt.is_empty();
+        {
+            let c = PassConsts {
+                model,
+                springs,
+                x,
+                fabric: model.fabric.as_deref().map(|f| (f, &self.fabric)),
+                pressure: (moves && pressure_acts).then_some(&self.pressure),
+                moves,
+                collides,
+                dt2,
+                damping_per_dt,
+            };
+            let parts = if parallel {
+                rayon::current_num_threads().max(1)
+            } else {
+                1
+            };
+            let per = n.div_ceil(parts).max(1);
+            self.bufs.resize_with(parts, Vec::new);
+            let force = &mut self.force;
+            let prev: &mut Soa = prev;
+            if parts == 1 {
+                pass(
+                    &c,
+                    0,
+                    RowMut {
+                        x: &mut force.x[..],
+                        y: &mut force.y[..],
+                        z: &mut force.z[..],
+                    },
+                    RowMut {
+                        x: &mut prev.x[..],
+                        y: &mut prev.y[..],
+                        z: &mut prev.z[..],
+                    },
+                    &mut state.contact,
+                    &mut self.bufs[0],
+                );
+            } else {
+                (
+                    force.x.par_chunks_mut(per),
+                    force.y.par_chunks_mut(per),
+                    force.z.par_chunks_mut(per),
+                    prev.x.par_chunks_mut(per),
+                    prev.y.par_chunks_mut(per),
+                    prev.z.par_chunks_mut(per),
+                    state.contact.par_chunks_mut(per),
+                    self.bufs.par_iter_mut(),
+                )
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(i, (fx, fy, fz, px, py, pz, contact, buf))| {
+                        let f = RowMut {
+                            x: fx,
+                            y: fy,
+                            z: fz,
+                        };
+                        let to = RowMut {
+                            x: px,
+                            y: py,
+                            z: pz,
+                        };
+                        pass(&c, i * per, f, to, contact, buf);
+                    });
+            }
+        }
+        if !moves {
+            // The seams' springs and damping (velocities as the damping above takes them).
+            if let Some(seams) = &model.seams {
+                let prev: &Soa = prev;
+                seams.add_forces(x, |k| (x.get(k) - prev.get(k)) / dt, &mut self.force);
+            }
+            // The soft attachments' springs to their points at the step's start.
+            for t in &mut control.tethers {
+                let k = t.particle;
+                t.force = t.pull(x.get(k), t.points[0]);
+                self.force.set(k, self.force.get(k) + t.force);
+            }
+            match air.timing {
+                Timing::Now => {
+                    for k in 0..n {
+                        let mut f = self.force.get(k);
+                        if pressure_acts {
+                            f += self.pressure.get(k);
+                            self.force.set(k, f);
+                        }
+                        let h = dt2 / model.mass(k);
+                        let (here, before) = (x.get(k), prev.get(k));
+                        prev.set(k, here + (here - before) + f * h);
+                    }
+                }
+                Timing::EndOfStep => {
+                    for k in 0..n {
+                        let h = dt2 / model.mass(k);
+                        let (here, before) = (x.get(k), prev.get(k));
+                        prev.set(k, here + (here - before) + self.force.get(k) * h);
+                    }
+                    for (k, target) in control.active() {
+                        prev.set(k, target);
+                    }
+                    self.coast.keep_cells = fused.measures.keep_cells;
+                    self.coast
+                        .remeasure_mesh(model.layout(), prev, model.sticking, model.radius);
+                    air.model.solve_end_of_step(
+                        air.params,
+                        model,
+                        prev,
+                        &self.coast,
+                        &control.held,
+                        None,
+                    );
+                    let (p, each) = load_of(&air);
+                    pressure_now(&mut self.pressure, p, each);
+                    for k in 0..n {
+                        let fp = self.pressure.get(k);
+                        self.force.set(k, self.force.get(k) + fp);
+                        prev.set(k, prev.get(k) + fp * (dt2 / model.mass(k)));
+                    }
                 }
             }
         }
-        // Contacts (eq. 3.4-3.5) of the moves from `x` to `prev`.
-        control.collider_work += resolve_contacts(model, x, prev, &mut state.contact, &frames, dt2);
+        // Contacts (eq. 3.4-3.5) of the moves from `x` to `prev`, unless the pass took them.
+        if !collides {
+            control.collider_work +=
+                resolve_contacts(model, x, prev, &mut state.contact, &frames, dt2);
+        }
         let p = prev;
         std::mem::swap(&mut state.x, p);
         if pressure_acts {
