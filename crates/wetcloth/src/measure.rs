@@ -145,48 +145,108 @@ pub(crate) fn row_cells(
     cells(grid, row(x, grid.nx, j), next, plane, offset, cell_volumes)
 }
 
-/// The measures of a mesh cloth at `x`: eq. 3.10 over its triangles (in triangle order), the
-/// largest `(length / rest length)^2` of a spring along an edge, and the finiteness probe;
-/// each triangle's own gap volume into `cell_volumes` when given.
+/// Triangles (or springs, or particles) per task of the mesh's measures on the pool.
+const MESH_TASK: usize = 4096;
+
+/// The measures of a mesh cloth at `x`: eq. 3.10 over its triangles (summed in triangle
+/// order), the largest `(length / rest length)^2` of a spring along an edge, and the
+/// finiteness probe; each triangle's own gap volume into `volumes` (one per triangle), each
+/// particle's height above the plane into `heights` (m, one per particle). On the
+/// pool if `parallel`: each triangle's volume is its own, the sum runs in triangle order after
+/// them and the largest stretch and the probe do not depend on the order they are taken in, so
+/// the result has the same bits on any number of threads.
 pub(crate) fn mesh_cells(
     layout: Layout<'_>,
     x: &Soa,
     plane: Option<StickingPlane>,
     offset: Real,
-    cell_volumes: Option<&mut [Real]>,
+    volumes: &mut [Real],
+    heights: &mut [Real],
+    parallel: bool,
 ) -> CellMeasures {
     let Layout::Mesh(mesh, springs) = layout else {
         return CellMeasures::default();
     };
-    let (origin, up) = plane.map_or((Vec3::ZERO, Vec3::Y), |p| (p.point, p.up));
     let mut volume = 0.0;
-    let mut out = cell_volumes;
-    if plane.is_some() {
+    if let Some(p) = plane {
         // Each particle's height once, then each triangle's prism (eq. 3.10).
-        let h0 = up.dot(origin) + offset;
-        let heights: Vec<Real> = (0..x.len())
-            .map(|k| up.x * x.x[k] + up.y * x.y[k] + up.z * x.z[k] - h0)
-            .collect();
-        for (t, &[a, b, c]) in mesh.triangles.iter().enumerate() {
-            let (a, b, c) = (a as usize, b as usize, c as usize);
-            let (pa, pb, pc) = (x.get(a), x.get(b), x.get(c));
-            let v = 0.5 * up.dot((pb - pa).cross(pc - pa)) * (heights[a] + heights[b] + heights[c])
-                / 3.0;
-            if let Some(o) = out.as_deref_mut() {
-                o[t] = v;
+        let up = p.up;
+        let h0 = up.dot(p.point) + offset;
+        let height = |k0: usize, out: &mut [Real]| {
+            let (xs, ys, zs) = (&x.x[k0..], &x.y[k0..], &x.z[k0..]);
+            for (i, h) in out.iter_mut().enumerate() {
+                *h = up.x * xs[i] + up.y * ys[i] + up.z * zs[i] - h0;
             }
+        };
+        let heights = &mut heights[..x.len()];
+        if parallel {
+            heights
+                .par_chunks_mut(MESH_TASK)
+                .enumerate()
+                .for_each(|(i, out)| height(i * MESH_TASK, out));
+        } else {
+            height(0, heights);
+        }
+        let heights = &*heights;
+        let prism = |t0: usize, out: &mut [Real]| {
+            for (o, &[a, b, c]) in out.iter_mut().zip(&mesh.triangles[t0..]) {
+                let (a, b, c) = (a as usize, b as usize, c as usize);
+                let (pa, pb, pc) = (x.get(a), x.get(b), x.get(c));
+                *o =
+                    0.5 * up.dot((pb - pa).cross(pc - pa)) * (heights[a] + heights[b] + heights[c])
+                        / 3.0;
+            }
+        };
+        if parallel {
+            volumes
+                .par_chunks_mut(MESH_TASK)
+                .enumerate()
+                .for_each(|(i, out)| prism(i * MESH_TASK, out));
+        } else {
+            prism(0, volumes);
+        }
+        for &v in volumes.iter() {
             volume += v;
         }
     }
-    let mut probe: Real = 0.0;
-    for k in 0..x.len() {
-        probe += (x.x[k] + x.y[k] + x.z[k]) * 0.0;
-    }
+    let (stretch2, probe) = if parallel {
+        rayon::join(
+            || springs.max_stretch2_parallel(x, MESH_TASK),
+            || finite_probe(x, MESH_TASK),
+        )
+    } else {
+        (springs.max_stretch2(x), finite_probe(x, usize::MAX))
+    };
     CellMeasures {
-        volume: if plane.is_some() { volume } else { 0.0 },
-        stretch2: springs.max_stretch2(x),
+        volume,
+        stretch2,
         finite_probe: probe + volume * 0.0,
     }
+}
+
+/// 0 if every coordinate of `x` is finite, NaN if one is not; `task` coordinates to a task on
+/// the pool (`usize::MAX`: on this thread).
+fn finite_probe(x: &Soa, task: usize) -> Real {
+    let probe = |v: &[Real]| {
+        let mut lanes = [0.0; LANES];
+        let mut chunks = v.chunks_exact(LANES);
+        for c in &mut chunks {
+            for (l, &v) in lanes.iter_mut().zip(c) {
+                *l += v * 0.0;
+            }
+        }
+        chunks.remainder().iter().map(|&v| v * 0.0).sum::<Real>() + lanes.iter().sum::<Real>()
+    };
+    let of = |v: &[Real]| {
+        if task == usize::MAX {
+            probe(v)
+        } else {
+            v.par_chunks(task).map(probe).sum::<Real>()
+        }
+    };
+    // Finite coordinates add zeros; one NaN or infinity makes the sum NaN.
+    let p = of(&x.x) + of(&x.y) + of(&x.z);
+    if p.is_nan() { Real::NAN } else { 0.0 }
 }
 
 /// The measures of every row of cells of a state: row `j` holds the cells between rows `j`
@@ -201,6 +261,10 @@ pub(crate) struct Measures {
     pub cells: Vec<Real>,
     /// Whether the measures keep each cell's volume (the pockets model needs them).
     pub keep_cells: bool,
+    /// A mesh cloth's triangles' gap volumes when the cells' are not kept (m^3), then its
+    /// particles' heights (m): scratch.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub scratch: Vec<Real>,
 }
 
 /// The sums of [`Measures`].
@@ -224,6 +288,7 @@ impl Measures {
                 rows: vec![CellMeasures::default(); 1],
                 cells: vec![0.0; mesh.triangles.len()],
                 keep_cells,
+                scratch: Vec::new(),
             },
         }
     }
@@ -235,9 +300,19 @@ impl Measures {
         x: &Soa,
         plane: Option<StickingPlane>,
         offset: Real,
+        parallel: bool,
     ) {
-        let cells = self.keep_cells.then_some(&mut self.cells[..]);
-        self.rows[0] = mesh_cells(layout, x, plane, offset, cells);
+        // Each triangle's volume (into `cells` only when kept: a checkpoint stores them), and
+        // each particle's height.
+        let triangles = if self.keep_cells { 0 } else { self.cells.len() };
+        self.scratch.resize(triangles + x.len(), 0.0);
+        let (volumes, heights) = self.scratch.split_at_mut(triangles);
+        let volumes = if self.keep_cells {
+            &mut self.cells[..]
+        } else {
+            volumes
+        };
+        self.rows[0] = mesh_cells(layout, x, plane, offset, volumes, heights, parallel);
     }
 
     /// Re-measures every row of `layout` from `x` ([`Measures::remeasure_all`] on the grid).
@@ -251,7 +326,7 @@ impl Measures {
     ) {
         match layout {
             Layout::Grid(grid) => self.remeasure_all(grid, x, plane, offset, parallel),
-            Layout::Mesh(..) => self.remeasure_mesh(layout, x, plane, offset),
+            Layout::Mesh(..) => self.remeasure_mesh(layout, x, plane, offset, parallel.is_some()),
         }
     }
 
@@ -261,6 +336,7 @@ impl Measures {
             rows: vec![CellMeasures::default(); grid.nz],
             cells: vec![0.0; (grid.nx - 1) * grid.nz],
             keep_cells,
+            scratch: Vec::new(),
         }
     }
 
@@ -330,7 +406,7 @@ impl Measures {
     /// Heap bytes held.
     pub fn heap_bytes(&self) -> usize {
         self.rows.capacity() * std::mem::size_of::<CellMeasures>()
-            + self.cells.capacity() * std::mem::size_of::<Real>()
+            + (self.cells.capacity() + self.scratch.capacity()) * std::mem::size_of::<Real>()
     }
 }
 

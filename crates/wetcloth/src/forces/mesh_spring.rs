@@ -28,6 +28,7 @@
 
 use crate::math::{Real, Soa, Vec3};
 use crate::model::ClothMesh;
+use rayon::prelude::*;
 
 /// The springs of a mesh cloth.
 #[derive(Clone, Debug, PartialEq)]
@@ -530,19 +531,45 @@ impl MeshSprings {
         f
     }
 
-    /// Largest `(length / rest length)^2` of a spring along an edge at positions `x`.
+    /// Largest `(length / rest length)^2` of a spring along an edge at positions `x` (NaN if
+    /// a position is not finite).
     pub fn max_stretch2(&self, x: &Soa) -> Real {
-        let mut worst: Real = 0.0;
-        for s in 0..self.edge_count {
-            let [a, b] = self.ends[s];
+        self.max_stretch2_of(x, 0..self.edge_count)
+    }
+
+    /// [`MeshSprings::max_stretch2`] on the pool, `task` springs to a task: the same value (a
+    /// largest value does not depend on the order it is taken in).
+    pub fn max_stretch2_parallel(&self, x: &Soa, task: usize) -> Real {
+        let tasks = self.edge_count.div_ceil(task.max(1));
+        (0..tasks)
+            .into_par_iter()
+            .map(|i| self.max_stretch2_of(x, i * task..((i + 1) * task).min(self.edge_count)))
+            .reduce(|| 0.0, larger)
+    }
+
+    /// The largest stretch of the edge springs `range`, in independent lanes (no chain of
+    /// comparisons from one spring to the next).
+    fn max_stretch2_of(&self, x: &Soa, range: std::ops::Range<usize>) -> Real {
+        const LANE: usize = 4;
+        let (ends, rest) = (&self.ends[range.clone()], &self.rest[range]);
+        let stretch = |[a, b]: [u32; 2], r: Real| {
             let (a, b) = (a as usize, b as usize);
             let (dx, dy, dz) = (x.x[b] - x.x[a], x.y[b] - x.y[a], x.z[b] - x.z[a]);
-            let r = self.rest[s];
-            // NaN propagates: a non-finite position shows as a NaN stretch.
-            let v = (dx * dx + dy * dy + dz * dz) / (r * r);
-            worst = if v > worst || v.is_nan() { v } else { worst };
+            (dx * dx + dy * dy + dz * dz) / (r * r)
+        };
+        let mut worst = [0.0; LANE];
+        let (mut e, mut r) = (ends.chunks_exact(LANE), rest.chunks_exact(LANE));
+        for (e, r) in (&mut e).zip(&mut r) {
+            for l in 0..LANE {
+                worst[l] = larger(worst[l], stretch(e[l], r[l]));
+            }
         }
-        worst
+        let tail = e
+            .remainder()
+            .iter()
+            .zip(r.remainder())
+            .fold(0.0, |w, (&e, &r)| larger(w, stretch(e, r)));
+        worst.into_iter().fold(tail, larger)
     }
 
     /// The elastic energy stored at positions `x`, J.
@@ -562,6 +589,19 @@ impl MeshSprings {
             + (self.rest.capacity() + self.stiffness.capacity()) * 8
             + (self.start.capacity() + self.of.capacity()) * 4
             + self.run.heap_bytes()
+    }
+}
+
+/// The larger of two stretches, NaN if either is (a non-finite position shows as a NaN
+/// stretch, whatever the order the springs are taken in).
+#[inline]
+fn larger(a: Real, b: Real) -> Real {
+    if a.is_nan() {
+        a
+    } else if b > a || b.is_nan() {
+        b
+    } else {
+        a
     }
 }
 

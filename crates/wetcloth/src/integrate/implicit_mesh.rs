@@ -692,6 +692,7 @@ impl ImplicitMesh {
                         &self.coast,
                         model.sticking,
                         model.radius,
+                        crate::exec::use_pool(n),
                     );
                     air.model.solve_end_of_step(
                         air.params,
@@ -756,6 +757,7 @@ impl ImplicitMesh {
                                 &self.coast,
                                 model.sticking,
                                 model.radius,
+                                crate::exec::use_pool(n),
                             );
                             let (coast, measures) = (&self.coast, &self.coast_measures);
                             // Each free particle ends `g_k + r_k dP` above contact (its coasting gap

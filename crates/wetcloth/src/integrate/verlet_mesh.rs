@@ -284,9 +284,13 @@ pub(crate) fn resolve_contacts(
 /// squared distance (m^2) of a particle no hand holds (`held`) from `fused.reference` (0
 /// without one).
 pub(crate) fn finish_step(model: &Model, x: &Soa, held: &[bool], fused: Fused<'_>) -> Real {
-    fused
-        .measures
-        .remeasure_mesh(model.layout(), x, model.sticking, model.radius);
+    fused.measures.remeasure_mesh(
+        model.layout(),
+        x,
+        model.sticking,
+        model.radius,
+        crate::exec::use_pool(x.len()),
+    );
     match fused.reference {
         Some(reference) => (0..x.len())
             .filter(|&k| !held[k])
@@ -495,8 +499,13 @@ impl MeshVerlet {
                         prev.set(k, target);
                     }
                     self.coast.keep_cells = fused.measures.keep_cells;
-                    self.coast
-                        .remeasure_mesh(model.layout(), prev, model.sticking, model.radius);
+                    self.coast.remeasure_mesh(
+                        model.layout(),
+                        prev,
+                        model.sticking,
+                        model.radius,
+                        crate::exec::use_pool(n),
+                    );
                     air.model.solve_end_of_step(
                         air.params,
                         model,
