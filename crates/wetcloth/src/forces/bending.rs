@@ -64,25 +64,61 @@ pub struct Rigidity {
 #[inline]
 pub fn angle_and_gradient(x: &Soa, h: Hinge) -> (Real, [Vec3; 4]) {
     let [a, b, c, d] = h.map(|i| x.get(i as usize));
+    let k = hinge_geometry(a, b, c, d);
+    let grad = if k.ok { k.grad } else { [Vec3::ZERO; 4] };
+    (angle_of(k.ok, k.sin, k.cos), grad)
+}
+
+/// What the corners of a hinge give: the sine and cosine of its dihedral angle, both scaled by
+/// the product of the two triangles' doubled areas, and the angle's gradient.
+#[derive(Clone, Copy, Debug)]
+struct HingeGeometry {
+    /// Whether the hinge has an angle: its edge has a length and both triangles an area.
+    ok: bool,
+    /// The angle's sine times `|n1| |n2|`, m^4.
+    sin: Real,
+    /// The angle's cosine times `|n1| |n2|`, m^4.
+    cos: Real,
+    /// The angle's gradient with respect to the four corners (1/m); not finite unless `ok`.
+    grad: [Vec3; 4],
+}
+
+/// The dihedral angle of a hinge's [`HingeGeometry`] (rad, in (-pi, pi]): 0 where `ok` is false.
+#[inline(always)]
+fn angle_of(ok: bool, sin: Real, cos: Real) -> Real {
+    if ok {
+        // atan2 is scale-free: the unnormalised normals give the same angle.
+        sin.atan2(cos)
+    } else {
+        0.0
+    }
+}
+
+/// The geometry of the hinge with corners `a`, `b` (the edge), `c` and `d` (m), computed without
+/// a branch, so that a loop over hinges vectorises: a degenerate hinge's divisions run too and
+/// `ok` says to discard them.
+#[inline(always)]
+fn hinge_geometry(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> HingeGeometry {
     let e = b - a;
     let le = e.length();
     // The two triangles' normals, both with the cloth's winding: (a, b, c) and (b, a, d).
     let n1 = (b - a).cross(c - a);
     let n2 = (a - b).cross(d - b);
     let (q1, q2) = (n1.length_squared(), n2.length_squared());
-    if le == 0.0 || q1 == 0.0 || q2 == 0.0 {
-        return (0.0, [Vec3::ZERO; 4]);
-    }
+    let ok = !(le == 0.0 || q1 == 0.0 || q2 == 0.0);
     let ue = e / le;
-    // atan2 is scale-free: the unnormalised normals give the same angle.
-    let theta = (n1.cross(n2).dot(ue)).atan2(n1.dot(n2));
     // Bridson, Marino and Fedkiw (2003): the four bending modes are the angle's gradient.
     let gc = n1 * (le / q1);
     let gd = n2 * (le / q2);
     let ga = n1 * ((c - b).dot(ue) / q1) + n2 * ((d - b).dot(ue) / q2);
     let gb = -(n1 * ((c - a).dot(ue) / q1) + n2 * ((d - a).dot(ue) / q2));
-    // Their modes point along the angle's decrease: the gradient is their negative.
-    (theta, [-ga, -gb, -gc, -gd])
+    HingeGeometry {
+        ok,
+        sin: n1.cross(n2).dot(ue),
+        cos: n1.dot(n2),
+        // Their modes point along the angle's decrease: the gradient is their negative.
+        grad: [-ga, -gb, -gc, -gd],
+    }
 }
 
 impl Bending {
@@ -228,8 +264,9 @@ impl Bending {
     }
 
     /// The angle changes of hinges `first..first + out.len()` at positions `x` into `out`, the
-    /// same bits as [`Bending::angle_change`] gives each: over lanes of hinges, the geometry
-    /// first (vectorised: no call and no branch), then the `atan2`s.
+    /// same bits as [`Bending::angle_change`] gives each (the same arithmetic): over lanes of
+    /// hinges, the geometry first (the kernel inlined and vectorised: no call and no branch),
+    /// then the `atan2`s.
     pub fn angles_run(&self, x: &Soa, first: usize, out: &mut [(Real, [Vec3; 4])]) {
         const LANE: usize = 32;
         for (c, out) in out.chunks_mut(LANE).enumerate() {
@@ -245,33 +282,21 @@ impl Bending {
             let mut ok = [false; LANE];
             let mut g = [[Vec3::ZERO; LANE]; 4];
             for i in 0..LANE {
-                let (a, b, c, d) = (p[0][i], p[1][i], p[2][i], p[3][i]);
-                // As `angle_and_gradient`, operation for operation.
-                let e = b - a;
-                let le = e.length();
-                let n1 = (b - a).cross(c - a);
-                let n2 = (a - b).cross(d - b);
-                let (q1, q2) = (n1.length_squared(), n2.length_squared());
-                ok[i] = !(le == 0.0 || q1 == 0.0 || q2 == 0.0);
-                let ue = e / le;
-                sin[i] = n1.cross(n2).dot(ue);
-                cos[i] = n1.dot(n2);
-                let gc = n1 * (le / q1);
-                let gd = n2 * (le / q2);
-                let ga = n1 * ((c - b).dot(ue) / q1) + n2 * ((d - b).dot(ue) / q2);
-                let gb = -(n1 * ((c - a).dot(ue) / q1) + n2 * ((d - a).dot(ue) / q2));
-                (g[0][i], g[1][i], g[2][i], g[3][i]) = (-ga, -gb, -gc, -gd);
+                let k = hinge_geometry(p[0][i], p[1][i], p[2][i], p[3][i]);
+                (ok[i], sin[i], cos[i]) = (k.ok, k.sin, k.cos);
+                for v in 0..4 {
+                    g[v][i] = k.grad[v];
+                }
             }
             // Field by field: no tuple composed on the stack and copied.
             for (i, o) in out.iter_mut().enumerate() {
                 let h = h0 + i;
+                o.0 = wrap(angle_of(ok[i], sin[i], cos[i]) - self.rest_angle[h]);
                 if ok[i] {
-                    o.0 = wrap(sin[i].atan2(cos[i]) - self.rest_angle[h]);
                     for v in 0..4 {
                         o.1[v] = g[v][i];
                     }
                 } else {
-                    o.0 = wrap(0.0 - self.rest_angle[h]);
                     o.1 = [Vec3::ZERO; 4];
                 }
             }
@@ -421,6 +446,60 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The lanes give every hinge's angle change and gradient with the same bits as the hinge
+    /// alone, over whole lanes, a part lane and a run starting inside a lane, degenerate hinges
+    /// (an edge of no length, a triangle of no area) included.
+    #[test]
+    fn the_lanes_give_the_bits_of_one_hinge() {
+        let mesh = sheet(12, 0.01, 0.25);
+        let b = Bending::new(
+            &mesh,
+            &vec![Vec3::X; mesh.triangles.len()],
+            Rigidity {
+                warp: 1e-4,
+                weft: 2e-4,
+            },
+            false,
+        );
+        let mut x = Soa::from_vec3(&mesh.rest);
+        for k in 0..x.len() {
+            let p = x.get(k);
+            let s = k as Real;
+            x.set(
+                k,
+                p + Vec3::new(
+                    0.001 * (1.7 * s).sin(),
+                    0.02 * (p.x * 40.0).sin() * (p.z * 25.0).cos(),
+                    0.001 * (0.9 * s).cos(),
+                ),
+            );
+        }
+        // Vertex 20 onto its neighbour 21 (an edge of no length), and the corners 59, 60, 73 of
+        // one triangle on a line, exactly (a triangle of no area).
+        x.set(20, x.get(21));
+        for (k, px) in [(59, 0.0703125), (60, 0.078125), (73, 0.0859375)] {
+            x.set(k, Vec3::new(px, 0.0, 0.0390625));
+        }
+        let n = b.hinges.len();
+        assert!(n > 3 * 32, "{n} hinges");
+        let bits = |a: &(Real, [Vec3; 4])| {
+            let mut v = vec![a.0.to_bits()];
+            v.extend(a.1.iter().flat_map(|g| g.to_array().map(Real::to_bits)));
+            v
+        };
+        let mut degenerate = 0;
+        for (first, len) in [(0, n), (5, 70), (n - 3, 3)] {
+            let mut out = vec![(Real::NAN, [Vec3::NAN; 4]); len];
+            b.angles_run(&x, first, &mut out);
+            for (i, o) in out.iter().enumerate() {
+                let one = b.angle_change(&x, first + i);
+                assert_eq!(bits(o), bits(&one), "hinge {}", first + i);
+                degenerate += usize::from(one.1 == [Vec3::ZERO; 4]);
+            }
+        }
+        assert!(degenerate > 0);
     }
 
     /// Bent onto a cylinder of curvature `k` about an axis in the sheet, every interior

@@ -138,37 +138,18 @@ impl Membrane {
     fn deformed(&self, x: &Soa, t: usize) -> Deformed {
         let [a, b, c] = self.triangles[t];
         let p = [x.get(a as usize), x.get(b as usize), x.get(c as usize)];
-        let g = &self.grad[t];
-        let f1 = p[0] * g[0][0] + p[1] * g[1][0] + p[2] * g[2][0];
-        let f2 = p[0] * g[0][1] + p[1] * g[1][1] + p[2] * g[2][1];
-        let e = [
-            0.5 * (f1.dot(f1) - 1.0),
-            0.5 * (f2.dot(f2) - 1.0),
-            0.5 * f1.dot(f2),
-        ];
-        let s = self.material.stress(e);
-        Deformed { f1, f2, e, s }
+        deformation(&self.material, &self.grad[t], p)
     }
 
     /// Triangle `t`'s forces on its three corners at positions `x`, N.
     #[inline]
     pub fn forces(&self, x: &Soa, t: usize) -> [Vec3; 3] {
-        let d = self.deformed(x, t);
-        // The first Piola-Kirchhoff stress P = F S, column by column.
-        let p1 = d.f1 * d.s[0] + d.f2 * d.s[2];
-        let p2 = d.f1 * d.s[2] + d.f2 * d.s[1];
-        let g = &self.grad[t];
-        let a = -self.area[t];
-        [
-            (p1 * g[0][0] + p2 * g[0][1]) * a,
-            (p1 * g[1][0] + p2 * g[1][1]) * a,
-            (p1 * g[2][0] + p2 * g[2][1]) * a,
-        ]
+        corner_forces(&self.deformed(x, t), &self.grad[t], self.area[t])
     }
 
     /// The forces of triangles `first..first + out.len()` at positions `x` into `out`, the
-    /// same bits as [`Membrane::forces`] gives each, over lanes of triangles (the corners
-    /// gathered first, then the arithmetic, vectorised).
+    /// same bits as [`Membrane::forces`] gives each (the same arithmetic), over lanes of
+    /// triangles (the corners gathered first, then the arithmetic, inlined and vectorised).
     pub fn forces_run(&self, x: &Soa, first: usize, out: &mut [[Vec3; 3]]) {
         const LANE: usize = 32;
         for (c, out) in out.chunks_mut(LANE).enumerate() {
@@ -183,21 +164,11 @@ impl Membrane {
             let (grads, areas) = (&self.grad[t0..t0 + m], &self.area[t0..t0 + m]);
             let mut f = [[Vec3::ZERO; LANE]; 3];
             for i in 0..m {
-                // As `deformed` and `forces`, operation for operation.
                 let g = &grads[i];
-                let f1 = p[0][i] * g[0][0] + p[1][i] * g[1][0] + p[2][i] * g[2][0];
-                let f2 = p[0][i] * g[0][1] + p[1][i] * g[1][1] + p[2][i] * g[2][1];
-                let e = [
-                    0.5 * (f1.dot(f1) - 1.0),
-                    0.5 * (f2.dot(f2) - 1.0),
-                    0.5 * f1.dot(f2),
-                ];
-                let s = self.material.stress(e);
-                let p1 = f1 * s[0] + f2 * s[2];
-                let p2 = f1 * s[2] + f2 * s[1];
-                let a = -areas[i];
+                let d = deformation(&self.material, g, [p[0][i], p[1][i], p[2][i]]);
+                let fi = corner_forces(&d, g, areas[i]);
                 for v in 0..3 {
-                    f[v][i] = (p1 * g[v][0] + p2 * g[v][1]) * a;
+                    f[v][i] = fi[v];
                 }
             }
             for (i, o) in out.iter_mut().enumerate() {
@@ -305,6 +276,36 @@ impl Membrane {
     }
 }
 
+/// The deformation of a triangle with shape gradients `g` (1/m) and corners at `p` (m), of
+/// `material`.
+#[inline(always)]
+fn deformation(material: &Orthotropic, g: &[[Real; 2]; 3], p: [Vec3; 3]) -> Deformed {
+    let f1 = p[0] * g[0][0] + p[1] * g[1][0] + p[2] * g[2][0];
+    let f2 = p[0] * g[0][1] + p[1] * g[1][1] + p[2] * g[2][1];
+    let e = [
+        0.5 * (f1.dot(f1) - 1.0),
+        0.5 * (f2.dot(f2) - 1.0),
+        0.5 * f1.dot(f2),
+    ];
+    let s = material.stress(e);
+    Deformed { f1, f2, e, s }
+}
+
+/// The forces on its three corners (N) of a triangle deformed as `d`, with shape gradients `g`
+/// (1/m) and rest area `area` (m^2).
+#[inline(always)]
+fn corner_forces(d: &Deformed, g: &[[Real; 2]; 3], area: Real) -> [Vec3; 3] {
+    // The first Piola-Kirchhoff stress P = F S, column by column.
+    let p1 = d.f1 * d.s[0] + d.f2 * d.s[2];
+    let p2 = d.f1 * d.s[2] + d.f2 * d.s[1];
+    let a = -area;
+    [
+        (p1 * g[0][0] + p2 * g[0][1]) * a,
+        (p1 * g[1][0] + p2 * g[1][1]) * a,
+        (p1 * g[2][0] + p2 * g[2][1]) * a,
+    ]
+}
+
 /// The material frame of the rest triangle `p0 p1 p2`: the warp `warp` projected onto the
 /// triangle (the projection of the x axis, then of the z axis, where `warp` is nearly normal to
 /// it) and the weft, the triangle's normal crossed with the warp.
@@ -377,6 +378,65 @@ mod tests {
                     assert!(
                         (col - got).length() < 1e-5 * (1.0 + col.length()),
                         "{j} {k} {c}: {col} vs {got}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The lanes give every triangle's forces with the same bits as the triangle alone, over
+    /// whole lanes, a part lane and a run starting inside a lane.
+    #[test]
+    fn the_lanes_give_the_bits_of_one_triangle() {
+        let (n, h) = (10, 0.01);
+        let mut rest = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                rest.push(Vec3::new(i as Real * h, 0.0, j as Real * h));
+            }
+        }
+        let v = |i: usize, j: usize| (j * n + i) as u32;
+        let mut tris = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                tris.push([v(i, j), v(i + 1, j + 1), v(i + 1, j)]);
+                tris.push([v(i, j), v(i, j + 1), v(i + 1, j + 1)]);
+            }
+        }
+        let warp = vec![Vec3::new(1.0, 0.0, 0.3); tris.len()];
+        let m = Membrane::new(
+            &rest,
+            &tris,
+            &warp,
+            Orthotropic::new(800.0, 300.0, 50.0, 0.3),
+        );
+        let mut x = Soa::from_vec3(&rest);
+        for k in 0..x.len() {
+            let p = x.get(k);
+            let s = k as Real;
+            x.set(
+                k,
+                p * 1.03
+                    + Vec3::new(
+                        0.001 * (1.7 * s).sin(),
+                        0.01 * (p.x * 40.0).sin(),
+                        0.001 * (0.9 * s).cos(),
+                    ),
+            );
+        }
+        let nt = tris.len();
+        assert!(nt > 3 * 32, "{nt} triangles");
+        for (first, len) in [(0, nt), (5, 70), (nt - 3, 3)] {
+            let mut out = vec![[Vec3::NAN; 3]; len];
+            m.forces_run(&x, first, &mut out);
+            for (i, o) in out.iter().enumerate() {
+                let one = m.forces(&x, first + i);
+                for c in 0..3 {
+                    assert_eq!(
+                        o[c].to_array().map(Real::to_bits),
+                        one[c].to_array().map(Real::to_bits),
+                        "triangle {} corner {c}",
+                        first + i
                     );
                 }
             }
