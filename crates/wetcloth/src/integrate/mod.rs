@@ -9,8 +9,10 @@
 //!
 //! | file | integrator | scene name |
 //! |---|---|---|
-//! | `verlet.rs` | position Verlet, thesis eq. 3.1 (explicit) | `"verlet"` |
-//! | `implicit.rs` | backward Euler, one Newton step, conjugate gradient (large steps) | `"implicit"` |
+//! | `verlet.rs` | position Verlet, thesis eq. 3.1 (explicit), the grid's fused row pass | `"verlet"` |
+//! | `verlet_mesh.rs` | the same on a cloth of any shape, by blocks of particles | `"verlet"` |
+//! | `implicit/` | backward Euler, one Newton step, conjugate gradient (large steps), the grid's stencil matrix and `multigrid.rs` | `"implicit"` |
+//! | `implicit_mesh.rs` | the same on a cloth of any shape: the block-sparse matrix and aggregation multigrid of `sparse.rs` | `"implicit"` |
 //!
 //! A new integrator is a new file here, a variant of [`crate::params::Integrator`] (its scene
 //! name) and of `IntegratorState`; it must pass the scenario table of `tests/physics.rs`.
@@ -39,6 +41,33 @@ pub(crate) struct Air<'a> {
     pub model: &'a mut AirModel,
     /// When the step's pressure is known.
     pub timing: Timing,
+}
+
+impl Air<'_> {
+    /// The pressure of the step's end ([`Timing::EndOfStep`]) from the coasting positions
+    /// `coast` of the explicit step: measured into `measures` (each cell's volume kept when
+    /// `keep_cells`; `parallel`: rows, or on a mesh any count, to a task on the pool), then
+    /// solved by the air model (which then gives the load).
+    pub fn solve_at_end(
+        &mut self,
+        model: &Model,
+        coast: &Soa,
+        measures: &mut Measures,
+        keep_cells: bool,
+        held: &[bool],
+        parallel: Option<usize>,
+    ) {
+        measures.keep_cells = keep_cells;
+        measures.remeasure_layout(
+            model.layout(),
+            coast,
+            model.sticking,
+            model.radius,
+            parallel,
+        );
+        self.model
+            .solve_end_of_step(self.params, model, coast, measures, held, None);
+    }
 }
 
 /// What the step asks an integrator to measure while it has the new positions at hand.

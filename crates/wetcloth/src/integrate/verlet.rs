@@ -171,7 +171,7 @@ impl Verlet {
         model: &Model,
         state: &mut State,
         control: &mut Control,
-        air: Air<'_>,
+        mut air: Air<'_>,
         dt: Real,
         fused: Fused<'_>,
     ) -> Real {
@@ -277,16 +277,13 @@ impl Verlet {
                 for (k, target) in control.active() {
                     prev.set(k, target);
                 }
-                self.coast.keep_cells = consts.keep_cells;
-                self.coast
-                    .remeasure_all(grid, prev, model.sticking, model.radius, rows);
-                air.model.solve_end_of_step(
-                    air.params,
+                air.solve_at_end(
                     model,
                     prev,
-                    &self.coast,
+                    &mut self.coast,
+                    consts.keep_cells,
                     &control.held,
-                    None,
+                    rows,
                 );
                 set_load(
                     &mut consts,

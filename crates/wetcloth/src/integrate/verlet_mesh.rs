@@ -333,7 +333,7 @@ impl MeshVerlet {
         springs: &MeshSprings,
         state: &mut State,
         control: &mut Control,
-        air: Air<'_>,
+        mut air: Air<'_>,
         dt: Real,
         fused: Fused<'_>,
     ) -> Real {
@@ -498,21 +498,13 @@ impl MeshVerlet {
                     for (k, target) in control.active() {
                         prev.set(k, target);
                     }
-                    self.coast.keep_cells = fused.measures.keep_cells;
-                    self.coast.remeasure_mesh(
-                        model.layout(),
-                        prev,
-                        model.sticking,
-                        model.radius,
-                        crate::exec::use_pool(n),
-                    );
-                    air.model.solve_end_of_step(
-                        air.params,
+                    air.solve_at_end(
                         model,
                         prev,
-                        &self.coast,
+                        &mut self.coast,
+                        fused.measures.keep_cells,
                         &control.held,
-                        None,
+                        crate::exec::use_pool(n).then_some(CHUNK),
                     );
                     let (p, each) = load_of(&air);
                     pressure_now(&mut self.pressure, p, each);

@@ -17,7 +17,7 @@
 //! gradient of the volume the pressure comes from (eq. 3.10 gives a border particle half an
 //! inner one's share), so for the thesis' bubble the step also measures the volume at its end
 //! and shifts the pressure by the gas spring times the miss beyond `g . v+ dt` (a relaxed
-//! iteration on the shift, see [`Relaxation`]), solving again while the shift moves it by more
+//! iteration on the shift, see [`Relaxation`](crate::air::solve::Relaxation)), solving again while the shift moves it by more
 //! than 0.01 Pa. The system matrix is
 //! symmetric positive definite; the conjugate gradient applies it row by row (the springs of
 //! each particle's 8 neighbours, then one dot product per region for the rank-one terms), never
