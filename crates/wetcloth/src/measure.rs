@@ -463,4 +463,82 @@ mod tests {
         m.remeasure_all(&grid, &p, None, 0.0, None);
         assert!(!m.totals().finite);
     }
+
+    /// A mesh cloth's measures on the pool (more triangles than one task takes) have the bits
+    /// of the same measures on one thread and of the sums written out here in triangle order:
+    /// the gap volume (eq. 3.10), the largest stretch and the finiteness; a NaN shows in both.
+    #[test]
+    fn mesh_measures_on_the_pool_have_the_bits_of_one_thread() {
+        use crate::forces::mesh_spring::MeshSprings;
+        use crate::model::ClothMesh;
+        let grid = Grid::new(&ClothParams {
+            resolution: [80, 70],
+            ..Default::default()
+        });
+        let rest = grid.rest_positions(Vec3::ZERO).to_vec3();
+        let mesh = ClothMesh::new(rest, grid.triangles()).unwrap();
+        assert!(mesh.triangles.len() > 2 * MESH_TASK);
+        let springs = MeshSprings::new(&mesh, 500.0, 125.0);
+        let layout = Layout::Mesh(&mesh, &springs);
+        let mut p = grid.rest_positions(Vec3::new(0.0, 0.004, 0.0));
+        for k in 0..p.len() {
+            let s = k as Real;
+            p.x[k] += 0.0004 * (1.3 * s).sin();
+            p.y[k] += 0.003 * (0.07 * s).cos();
+            p.z[k] += 0.0003 * (2.1 * s).sin();
+        }
+        let plane = StickingPlane {
+            point: Vec3::ZERO,
+            up: Vec3::new(0.05, 1.0, -0.1).normalize(),
+        };
+        let measure = |p: &Soa, threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut m = Measures::for_layout(layout, false);
+                m.remeasure_mesh(layout, p, Some(plane), 0.001, threads > 1);
+                m.rows[0]
+            })
+        };
+        let (one, two) = (measure(&p, 1), measure(&p, 2));
+        assert_eq!(one.volume.to_bits(), two.volume.to_bits());
+        assert_eq!(one.stretch2.to_bits(), two.stretch2.to_bits());
+        assert_eq!(one.finite_probe.to_bits(), 0.0f64.to_bits());
+        assert_eq!(two.finite_probe.to_bits(), 0.0f64.to_bits());
+        // Eq. 3.10 summed here in triangle order, and the largest stretch of an edge.
+        let h = |k: usize| plane.up.dot(p.get(k) - plane.point) - 0.001;
+        let mut volume = 0.0;
+        for &[a, b, c] in &mesh.triangles {
+            let (a, b, c) = (a as usize, b as usize, c as usize);
+            let (pa, pb, pc) = (p.get(a), p.get(b), p.get(c));
+            volume += 0.5 * plane.up.dot((pb - pa).cross(pc - pa)) * (h(a) + h(b) + h(c)) / 3.0;
+        }
+        assert!(
+            (one.volume - volume).abs() <= 1e-12 * volume.abs(),
+            "{} vs {volume}",
+            one.volume
+        );
+        let stretch = (0..springs.edge_count)
+            .map(|s| {
+                let [a, b] = springs.ends[s];
+                let l = (p.get(b as usize) - p.get(a as usize)).length() / springs.rest[s];
+                l * l
+            })
+            .fold(0.0, Real::max);
+        assert!(
+            (one.stretch2 - stretch).abs() < 1e-12,
+            "{} vs {stretch}",
+            one.stretch2
+        );
+        assert!(stretch > 1.0 + 1e-6, "the test stretches some edge");
+        // A NaN in the last task's particles.
+        let last = p.len() - 3;
+        p.z[last] = Real::NAN;
+        for threads in [1, 2] {
+            let m = measure(&p, threads);
+            assert!(m.volume.is_nan() && m.stretch2.is_nan() && m.finite_probe.is_nan());
+        }
+    }
 }
