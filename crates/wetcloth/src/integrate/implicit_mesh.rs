@@ -369,7 +369,12 @@ impl ImplicitMesh {
                 self.rhs.set(k, self.rhs.get(k) - c);
             }
         }
-        self.pre.refresh(&self.a, &self.fixed);
+        let sliding = if self.normals.iter().any(|&m| m != Vec3::ZERO) {
+            &self.normals[..]
+        } else {
+            &[]
+        };
+        self.pre.refresh(&self.a, &self.fixed, sliding);
         // The solve sees the known velocities as fixed; their columns are in the rhs, so the
         // product is of the free unknowns only.
         let mut free_v = std::mem::take(&mut self.free);

@@ -146,6 +146,10 @@ pub(crate) struct Preconditioner {
     levels: Vec<Level>,
     /// Scratch of the finest level's sweeps.
     work: Vec<Vec3>,
+    /// The finest matrix as the solve sees it when some rows slide (`S A S` with each sliding
+    /// row's filter `S = I - n n^T`, and its diagonal block's scale along `n`), the matrix the
+    /// hierarchy is then built from; `None` when no row slides (the matrix itself).
+    projected: Option<BlockCsr>,
 }
 
 /// Smallest level aggregated further.
@@ -383,10 +387,42 @@ fn cycle(
     sweep(a, inv, b, x, work, false, parallel);
 }
 
+/// `out` (of `a`'s pattern) = `S A S` with `S_i = I - n_i n_i^T` on the rows with a non-zero
+/// unit vector in `normals` (the identity elsewhere), plus `n_i n_i^T` times a third of the
+/// diagonal block's trace on those rows: the system the filtered conjugate gradient solves,
+/// definite along the filtered directions too.
+fn project(a: &BlockCsr, normals: &[Vec3], out: &mut BlockCsr) {
+    let filter = |i: usize| {
+        let m = normals[i];
+        (m != Vec3::ZERO).then(|| DMat3::IDENTITY - DMat3::from_cols(m * m.x, m * m.y, m * m.z))
+    };
+    for i in 0..a.rows() {
+        let si = filter(i);
+        for k in a.start[i] as usize..a.start[i + 1] as usize {
+            let j = a.col[k] as usize;
+            let mut b = a.val[k];
+            if let Some(s) = si {
+                b = s * b;
+            }
+            if let Some(s) = filter(j) {
+                b *= s;
+            }
+            out.val[k] = b;
+        }
+        if si.is_some() {
+            let d = a.val[a.diag[i] as usize];
+            let m = normals[i];
+            let scale = (d.x_axis.x + d.y_axis.y + d.z_axis.z) / 3.0;
+            out.val[a.diag[i] as usize] += DMat3::from_cols(m * m.x, m * m.y, m * m.z) * scale;
+        }
+    }
+}
+
 impl Preconditioner {
     /// The hierarchy of the matrix pattern `a` (`multigrid`), or block-Jacobi alone.
     pub fn setup(&mut self, a: &BlockCsr, multigrid: bool) {
         self.levels.clear();
+        self.projected = None;
         self.inv_diag = vec![DMat3::ZERO; a.rows()];
         self.fixed = vec![false; a.rows()];
         if !multigrid {
@@ -413,8 +449,25 @@ impl Preconditioner {
     }
 
     /// The values of the matrix `a` (of the pattern [`Preconditioner::setup`] took), its rows
-    /// marked `fixed` known (left out of every level).
-    pub fn refresh(&mut self, a: &BlockCsr, fixed: &[bool]) {
+    /// marked `fixed` known (left out of every level), and the rows with a non-zero unit vector
+    /// in `normals` (empty: none) sliding along their plane: the conjugate gradient filters
+    /// their part along `n` out of every vector (see [`pcg`]), so the hierarchy is built from
+    /// the filtered matrix `S A S` (a sliding row's block along `n` kept at its diagonal's
+    /// scale, so the matrix stays definite). Built from `A` itself, the cycle's corrections
+    /// along `n`, which the filter then drops, cost a sliding cloth half its convergence.
+    pub fn refresh(&mut self, a: &BlockCsr, fixed: &[bool], normals: &[Vec3]) {
+        if normals.iter().any(|&m| m != Vec3::ZERO) {
+            let mut p = self.projected.take().unwrap_or_else(|| a.clone());
+            project(a, normals, &mut p);
+            self.refresh_values(&p, fixed);
+            self.projected = Some(p);
+        } else {
+            self.projected = None;
+            self.refresh_values(a, fixed);
+        }
+    }
+
+    fn refresh_values(&mut self, a: &BlockCsr, fixed: &[bool]) {
         for i in 0..a.rows() {
             self.inv_diag[i] = if fixed[i] {
                 DMat3::ZERO
@@ -457,6 +510,7 @@ impl Preconditioner {
             }
             return;
         }
+        let a = self.projected.as_ref().unwrap_or(a);
         cycle(
             a,
             &self.inv_diag,
@@ -699,7 +753,7 @@ mod tests {
         for (slot, mg) in [false, true].into_iter().enumerate() {
             let mut pre = Preconditioner::default();
             pre.setup(&a, mg);
-            pre.refresh(&a, &fixed);
+            pre.refresh(&a, &fixed, &[]);
             let mut x = Soa::zeros(n);
             let mut scratch = CgScratch::default();
             iters[slot] = pcg(
@@ -724,5 +778,108 @@ mod tests {
             assert!(err < 1e-7, "multigrid {mg}: residual {err}");
         }
         assert!(iters[1] < iters[0], "iterations {iters:?}");
+    }
+
+    /// A stiff sheet whose rows mostly slide along planes of many orientations: the filtered
+    /// conjugate gradient reaches the filtered system's solution (no part along a sliding
+    /// row's normal, no filtered residual) with the hierarchy built from `A` (the normals left
+    /// out of the refresh) and with it built from `S A S`, the latter in at most half the
+    /// iterations (38 against 13 here).
+    #[test]
+    fn the_hierarchy_of_the_filtered_matrix_solves_sliding_rows_faster() {
+        let side = 40;
+        let n = side * side;
+        let at = |i: usize, j: usize| (j * side + i) as u32;
+        let mut pairs = Vec::new();
+        for j in 0..side {
+            for i in 0..side {
+                if i + 1 < side {
+                    pairs.push([at(i, j), at(i + 1, j)]);
+                }
+                if j + 1 < side {
+                    pairs.push([at(i, j), at(i, j + 1)]);
+                }
+                if i + 1 < side && j + 1 < side {
+                    pairs.push([at(i, j), at(i + 1, j + 1)]);
+                }
+            }
+        }
+        let mut a = BlockCsr::pattern(n, pairs.iter().copied());
+        let (m, k) = (1e-4, 1.0);
+        for i in 0..n {
+            let deg = (a.start[i + 1] - a.start[i] - 1) as Real;
+            for s in a.start[i] as usize..a.start[i + 1] as usize {
+                let j = a.col[s] as usize;
+                a.val[s] = if i == j {
+                    DMat3::from_diagonal(Vec3::splat(m + k * deg))
+                } else {
+                    DMat3::from_diagonal(Vec3::splat(-k))
+                };
+            }
+        }
+        let fixed: Vec<bool> = (0..n).map(|i| i % 97 == 0).collect();
+        let normals: Vec<Vec3> = (0..n)
+            .map(|i| {
+                if i % 3 == 0 {
+                    Vec3::ZERO
+                } else {
+                    let t = i as Real;
+                    Vec3::new(0.6 * t.sin(), 1.0, 0.6 * (1.7 * t).cos()).normalize()
+                }
+            })
+            .collect();
+        let mut b = Soa::zeros(n);
+        for i in 0..n {
+            let v = if fixed[i] {
+                Vec3::ZERO
+            } else {
+                Vec3::new(1.0, -2.0, (i % 7) as Real - 3.0)
+            };
+            b.set(i, v - normals[i] * normals[i].dot(v));
+        }
+        let mut iters = [0; 2];
+        for (slot, filtered) in [false, true].into_iter().enumerate() {
+            let mut pre = Preconditioner::default();
+            pre.setup(&a, true);
+            pre.refresh(&a, &fixed, if filtered { &normals } else { &[] });
+            let mut x = Soa::zeros(n);
+            let mut scratch = CgScratch::default();
+            iters[slot] = pcg(
+                &a,
+                &mut pre,
+                &b,
+                &mut x,
+                &fixed,
+                &normals,
+                1e-9,
+                5000,
+                false,
+                &mut scratch,
+            );
+            let xs: Vec<Vec3> = (0..n).map(|i| x.get(i)).collect();
+            let mut ax = vec![Vec3::ZERO; n];
+            product(&a, &xs, &mut ax, false);
+            for i in 0..n {
+                if fixed[i] {
+                    assert_eq!(xs[i], Vec3::ZERO);
+                    continue;
+                }
+                let nm = normals[i];
+                let r = b.get(i) - ax[i];
+                let r = r - nm * nm.dot(r);
+                assert!(
+                    r.length() < 1e-6,
+                    "filtered {filtered}: row {i} residual {r}"
+                );
+                assert!(
+                    nm.dot(xs[i]).abs() < 1e-12,
+                    "row {i} moved along its normal"
+                );
+            }
+        }
+        assert!(
+            2 * iters[1] <= iters[0],
+            "iterations, hierarchy of A then of S A S: {iters:?}"
+        );
     }
 }
