@@ -392,30 +392,33 @@ fn cycle(
 /// diagonal block's trace on those rows: the system the filtered conjugate gradient solves,
 /// definite along the filtered directions too.
 fn project(a: &BlockCsr, normals: &[Vec3], out: &mut BlockCsr) {
-    let filter = |i: usize| {
-        let m = normals[i];
-        (m != Vec3::ZERO).then(|| DMat3::IDENTITY - DMat3::from_cols(m * m.x, m * m.y, m * m.z))
-    };
+    let outer = |m: Vec3| outer_of(m, m);
     for i in 0..a.rows() {
-        let si = filter(i);
+        let mi = normals[i];
         for k in a.start[i] as usize..a.start[i + 1] as usize {
-            let j = a.col[k] as usize;
+            let mj = normals[a.col[k] as usize];
             let mut b = a.val[k];
-            if let Some(s) = si {
-                b = s * b;
+            // (I - m m^T) B = B - m (m^T B), and B (I - m m^T) = B - (B m) m^T.
+            if mi != Vec3::ZERO {
+                b -= outer_of(mi, b.transpose() * mi);
             }
-            if let Some(s) = filter(j) {
-                b *= s;
+            if mj != Vec3::ZERO {
+                b -= outer_of(b * mj, mj);
             }
             out.val[k] = b;
         }
-        if si.is_some() {
+        if mi != Vec3::ZERO {
             let d = a.val[a.diag[i] as usize];
-            let m = normals[i];
             let scale = (d.x_axis.x + d.y_axis.y + d.z_axis.z) / 3.0;
-            out.val[a.diag[i] as usize] += DMat3::from_cols(m * m.x, m * m.y, m * m.z) * scale;
+            out.val[a.diag[i] as usize] += outer(mi) * scale;
         }
     }
+}
+
+/// The outer product `u v^T`.
+#[inline]
+fn outer_of(u: Vec3, v: Vec3) -> DMat3 {
+    DMat3::from_cols(u * v.x, u * v.y, u * v.z)
 }
 
 impl Preconditioner {
