@@ -389,20 +389,7 @@ mod tests {
     #[test]
     fn the_lanes_give_the_bits_of_one_triangle() {
         let (n, h) = (10, 0.01);
-        let mut rest = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                rest.push(Vec3::new(i as Real * h, 0.0, j as Real * h));
-            }
-        }
-        let v = |i: usize, j: usize| (j * n + i) as u32;
-        let mut tris = Vec::new();
-        for j in 0..n - 1 {
-            for i in 0..n - 1 {
-                tris.push([v(i, j), v(i + 1, j + 1), v(i + 1, j)]);
-                tris.push([v(i, j), v(i, j + 1), v(i + 1, j + 1)]);
-            }
-        }
+        let (rest, tris) = crate::model::test_square(n, h * (n - 1) as Real);
         let warp = vec![Vec3::new(1.0, 0.0, 0.3); tris.len()];
         let m = Membrane::new(
             &rest,

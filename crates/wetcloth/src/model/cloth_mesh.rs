@@ -352,33 +352,36 @@ impl ClothMesh {
     }
 }
 
+/// A flat square of `n x n` particles, `size` m a side in the xz plane, two triangles a cell
+/// (the diagonal from `(i, j)` to `(i + 1, j + 1)`): the tests' sheet.
+#[cfg(test)]
+pub(crate) fn test_square(n: usize, size: Real) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let h = size / (n - 1) as Real;
+    let mut v = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            v.push(Vec3::new(i as Real * h, 0.0, j as Real * h));
+        }
+    }
+    let mut t = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let a = (j * n + i) as u32;
+            let (b, c, d) = (a + 1, a + 1 + n as u32, a + n as u32);
+            t.push([a, c, b]);
+            t.push([a, d, c]);
+        }
+    }
+    (v, t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn square(n: usize, size: Real) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let h = size / (n - 1) as Real;
-        let mut v = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                v.push(Vec3::new(i as Real * h, 0.0, j as Real * h));
-            }
-        }
-        let mut t = Vec::new();
-        for j in 0..n - 1 {
-            for i in 0..n - 1 {
-                let a = (j * n + i) as u32;
-                let (b, c, d) = (a + 1, a + 1 + n as u32, a + n as u32);
-                t.push([a, c, b]);
-                t.push([a, d, c]);
-            }
-        }
-        (v, t)
-    }
-
     #[test]
     fn a_square_has_one_boundary_loop_and_lumped_areas_summing_to_its_area() {
-        let (v, t) = square(5, 0.4);
+        let (v, t) = test_square(5, 0.4);
         let m = ClothMesh::new(v, t).unwrap();
         assert_eq!(m.boundary.len(), 1);
         assert_eq!(m.boundary[0].len(), 16);
@@ -419,13 +422,13 @@ mod tests {
 
     #[test]
     fn bad_meshes_are_refused_with_the_face() {
-        let (v, mut t) = square(3, 1.0);
+        let (v, mut t) = test_square(3, 1.0);
         t[3] = [t[3][0], t[3][2], t[3][1]];
         assert!(matches!(
             ClothMesh::new(v.clone(), t),
             Err(ClothMeshError::InconsistentWinding { .. })
         ));
-        let (_, t) = square(3, 1.0);
+        let (_, t) = test_square(3, 1.0);
         let mut t2 = t.clone();
         t2.push([0, 1, 4]);
         assert!(matches!(

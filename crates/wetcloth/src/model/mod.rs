@@ -4,6 +4,8 @@
 //! in [`crate::control`].
 
 mod cloth_mesh;
+#[cfg(test)]
+pub(crate) use cloth_mesh::test_square;
 mod grid;
 mod surface;
 
