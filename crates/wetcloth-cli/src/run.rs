@@ -453,6 +453,23 @@ fn bake(
              limit of {stable:.3e} s; the run will probably blow up"
         );
     }
+    for o in wetcloth::collide::plane_overlaps(&config.colliders, config.cloth.particle_radius()) {
+        let file = match &config.colliders[o.mesh].shape {
+            wetcloth::collide::Shape::Mesh(m) => Path::new(&m.file)
+                .file_name()
+                .map_or_else(|| m.file.clone(), |f| f.to_string_lossy().into_owned()),
+            _ => String::new(),
+        };
+        eprintln!(
+            "wetcloth: warning: [[collider]] {} (mesh {file}) goes {:.1} mm into [[collider]] {} \
+             (a plane) at t = {:.3} s: cloth caught between them has no room and is crushed or \
+             torn there; move the plane down or the mesh's motion up",
+            o.mesh + 1,
+            o.depth * 1e3,
+            o.plane + 1,
+            o.time
+        );
+    }
     let interrupt = Interrupt::install();
 
     // run.json first: from now on it says a run is writing here (an earlier run's

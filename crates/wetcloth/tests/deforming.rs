@@ -258,3 +258,51 @@ fn a_growing_sphere_pushes_a_draped_cloth_out() {
         );
     }
 }
+
+/// A body moved by points whose lowest corner sinks 6 mm into the floor in one frame (a planted
+/// foot of a bobbing walk) is reported with how deep and when; standing on the floor, or with
+/// the floor lowered 1 cm, it is not (cloth caught between the two would have no room).
+#[test]
+fn a_mesh_moved_into_a_still_plane_is_reported() {
+    let half = Vec3::new(0.1, 0.05, 0.1);
+    let (v, t) = box_mesh(half);
+    // Frames at 10 per second: the box's bottom at the floor, 6 mm under it, at it again.
+    let sink = [0.0, 0.003, 0.006, 0.002, 0.0];
+    let frames: Vec<Vec<Vec3>> = sink
+        .iter()
+        .map(|&d| {
+            v.iter()
+                .map(|p| *p + Vec3::new(0.0, half.y - d, 0.0))
+                .collect()
+        })
+        .collect();
+    let body = Mesh::new(
+        "body.obj",
+        v.clone(),
+        t.clone(),
+        Vec3::ZERO,
+        Vec3::ZERO,
+        1.0,
+    )
+    .unwrap()
+    .with_motion(motion(frames, 10.0))
+    .unwrap();
+    let floor = |y: Real| Collider::plane(Vec3::new(0.0, y, 0.0), Vec3::Y, 0.6);
+    let overlaps = |colliders: &[Collider]| wetcloth::collide::plane_overlaps(colliders, 0.0008);
+    let found = overlaps(&[floor(0.0), Collider::mesh(body.clone(), 0.6)]);
+    assert_eq!(found.len(), 1, "{found:?}");
+    let o = found[0];
+    assert_eq!((o.mesh, o.plane), (1, 0));
+    assert!((o.depth - 0.006).abs() < 1e-12, "depth {}", o.depth);
+    assert!((o.time - 0.2).abs() < 1e-12, "time {}", o.time);
+    assert!(overlaps(&[floor(-0.01), Collider::mesh(body.clone(), 0.6)]).is_empty());
+    // Standing on the floor in every frame: touching is not going into it.
+    let standing = Mesh::new("body.obj", v.clone(), t, Vec3::ZERO, Vec3::ZERO, 1.0)
+        .unwrap()
+        .with_motion(motion(
+            vec![v.iter().map(|p| *p + Vec3::Y * half.y).collect(); 3],
+            10.0,
+        ))
+        .unwrap();
+    assert!(overlaps(&[floor(0.0), Collider::mesh(standing, 0.6)]).is_empty());
+}

@@ -401,6 +401,16 @@ impl Deform {
         self.order = order;
     }
 
+    /// Each frame's scene time (s) and merged points (the mesh's own coordinates, m).
+    pub(crate) fn frames(&self) -> impl Iterator<Item = (Real, &[Vec3])> {
+        self.frames.iter().enumerate().map(|(i, f)| {
+            (
+                self.motion.start + i as Real / self.motion.frame_rate,
+                f.as_slice(),
+            )
+        })
+    }
+
     /// The mesh's points at time `t` (s), frames interpolated linearly.
     fn points_at(&self, t: Real) -> Vec<Vec3> {
         let (i, j, w) = self.motion.segment(t);

@@ -310,6 +310,23 @@ impl Mesh {
         self.deform.as_deref().map(|d| &d.motion)
     }
 
+    /// How far the points of a mesh moved by points ([`Mesh::is_deforming`]) go below the plane
+    /// through `point` with unit normal `up` (m: the largest over every frame, negative when no
+    /// point reaches the plane) and the scene time of that frame (s); `None` for a still mesh.
+    pub fn deepest_below(&self, point: Vec3, up: Vec3) -> Option<(Real, Real)> {
+        let deform = self.deform.as_ref()?;
+        let mut deepest = (Real::NEG_INFINITY, 0.0);
+        for (t, points) in deform.frames() {
+            for &q in points {
+                let depth = -up.dot(self.position + self.matrix * q - point);
+                if depth > deepest.0 {
+                    deepest = (depth, t);
+                }
+            }
+        }
+        Some(deepest)
+    }
+
     /// Whether the mesh's points move (scene `sequence` or `cache`).
     pub fn is_deforming(&self) -> bool {
         self.deform.is_some()

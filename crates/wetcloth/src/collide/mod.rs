@@ -40,6 +40,60 @@ pub use sticking::StickingPlane;
 use crate::error::ConfigError;
 use crate::math::{Real, Vec3};
 
+/// A mesh collider moved by points that goes into a still plane collider
+/// ([`plane_overlaps`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneOverlap {
+    /// The mesh collider's place in the scene's list (0-based).
+    pub mesh: usize,
+    /// The plane collider's place in the list (0-based).
+    pub plane: usize,
+    /// How far the mesh's deepest point goes below the plane, m.
+    pub depth: Real,
+    /// The scene time of the frame it does, s.
+    pub time: Real,
+}
+
+/// The mesh colliders moved by points (an OBJ sequence or a point cache) that go more than
+/// `tolerance` m into a still plane collider in some frame of their motion: cloth caught
+/// between the two has no room (the mesh pushes it through the plane and the plane pushes it
+/// back), and is crushed or torn there. A body standing on the floor reaches the plane and no
+/// further; a walk whose planted foot sinks into the floor does. Each mesh's deepest plane.
+pub fn plane_overlaps(colliders: &[Collider], tolerance: Real) -> Vec<PlaneOverlap> {
+    let mut out = Vec::new();
+    for (m, c) in colliders.iter().enumerate() {
+        let Shape::Mesh(mesh) = &c.shape else {
+            continue;
+        };
+        if !c.keys.is_empty() {
+            continue;
+        }
+        let mut worst: Option<PlaneOverlap> = None;
+        for (p, plane) in colliders.iter().enumerate() {
+            let Shape::Plane(plane_shape) = &plane.shape else {
+                continue;
+            };
+            if !plane.keys.is_empty() {
+                continue;
+            }
+            let Some((depth, time)) = mesh.deepest_below(plane_shape.point, plane_shape.normal)
+            else {
+                continue;
+            };
+            if depth > tolerance && worst.is_none_or(|w| depth > w.depth) {
+                worst = Some(PlaneOverlap {
+                    mesh: m,
+                    plane: p,
+                    depth,
+                    time,
+                });
+            }
+        }
+        out.extend(worst);
+    }
+    out
+}
+
 /// A collider shape.
 #[derive(Clone, Debug, PartialEq)]
 #[cfg_attr(
