@@ -615,7 +615,7 @@ impl Pockets {
                 // A deforming mesh is taken as it is at `t` whole (its pose and placement).
                 let posed = c.is_deforming().then(|| c.at(t));
                 let place = (c.is_moving() && posed.is_none()).then(|| c.placement_at(t));
-                for k in 0..n {
+                let nearest = |k: usize, gap: &mut Real, out: &mut crate::math::Vec3| {
                     let (d, normal) = match &place {
                         None => posed.as_ref().unwrap_or(c).distance(x.get(k)),
                         Some(at) => {
@@ -623,9 +623,24 @@ impl Pockets {
                             (d, at.dir_to_world(normal))
                         }
                     };
-                    if d < sc.gap[k] {
-                        sc.gap[k] = d;
-                        sc.normal[k] = normal;
+                    if d < *gap {
+                        *gap = d;
+                        *out = normal;
+                    }
+                };
+                // Each particle's query is its own (a mesh's closest point is most of the
+                // cost): on the pool for a large cloth, the same bits.
+                if crate::exec::use_pool(n) {
+                    use rayon::prelude::*;
+                    sc.gap
+                        .par_iter_mut()
+                        .zip(sc.normal.par_iter_mut())
+                        .enumerate()
+                        .with_min_len(256)
+                        .for_each(|(k, (g, o))| nearest(k, g, o));
+                } else {
+                    for (k, (g, o)) in sc.gap.iter_mut().zip(sc.normal.iter_mut()).enumerate() {
+                        nearest(k, g, o);
                     }
                 }
             }
