@@ -196,8 +196,11 @@ fn killed_runs_resume_to_the_same_bytes(name: &str, text: &str) {
         if i % 2 == 1 && fs::metadata(out.join("checkpoint.bin")).is_ok() {
             run_and_kill(&resume, wall.mul_f64(0.3 * f));
         }
-        if fs::metadata(out.join("checkpoint.bin")).is_err() {
-            // Killed before its first checkpoint (or after the end): nothing to resume.
+        // Killed before its first checkpoint, or after the end (a resumed run killed between
+        // its last run.json, "complete", and removing its checkpoint): nothing to resume.
+        if fs::metadata(out.join("checkpoint.bin")).is_err()
+            || run_json(&out)["status"] == "complete"
+        {
             let o = wetcloth(&resume);
             if run_json(&out)["status"] == "complete" {
                 assert_same(&want, &out, &format!("run {i}, complete"));
