@@ -59,6 +59,27 @@ where
     }
 }
 
+/// `f(first, chunk)` over `out` in chunks of `len` items (the last may be shorter), `first` the
+/// index of the chunk's first item; the chunks side by side on the pool if `parallel`, else in
+/// order on this thread. Each chunk is the same either way, so a pass whose chunks do not read
+/// each other's items has the same bits on any thread count.
+pub(crate) fn by_chunks<T: Send>(
+    out: &mut [T],
+    len: usize,
+    parallel: bool,
+    f: impl Fn(usize, &mut [T]) + Sync,
+) {
+    if parallel {
+        out.par_chunks_mut(len)
+            .enumerate()
+            .for_each(|(c, part)| f(c * len, part));
+    } else {
+        out.chunks_mut(len)
+            .enumerate()
+            .for_each(|(c, part)| f(c * len, part));
+    }
+}
+
 /// `p[k] = f(k, p[k])` for every particle.
 pub(crate) fn map_in_place<F>(p: &mut Soa, f: F)
 where

@@ -179,14 +179,7 @@ pub(crate) fn mesh_cells(
             }
         };
         let heights = &mut heights[..x.len()];
-        if parallel {
-            heights
-                .par_chunks_mut(MESH_TASK)
-                .enumerate()
-                .for_each(|(i, out)| height(i * MESH_TASK, out));
-        } else {
-            height(0, heights);
-        }
+        crate::exec::by_chunks(heights, MESH_TASK, parallel, height);
         let heights = &*heights;
         let prism = |t0: usize, out: &mut [Real]| {
             for (o, &[a, b, c]) in out.iter_mut().zip(&mesh.triangles[t0..]) {
@@ -197,14 +190,7 @@ pub(crate) fn mesh_cells(
                         / 3.0;
             }
         };
-        if parallel {
-            volumes
-                .par_chunks_mut(MESH_TASK)
-                .enumerate()
-                .for_each(|(i, out)| prism(i * MESH_TASK, out));
-        } else {
-            prism(0, volumes);
-        }
+        crate::exec::by_chunks(volumes, MESH_TASK, parallel, prism);
         for &v in volumes.iter() {
             volume += v;
         }
@@ -212,10 +198,10 @@ pub(crate) fn mesh_cells(
     let (stretch2, probe) = if parallel {
         rayon::join(
             || springs.max_stretch2_parallel(x, MESH_TASK),
-            || finite_probe(x, MESH_TASK),
+            || finite_probe(x, true),
         )
     } else {
-        (springs.max_stretch2(x), finite_probe(x, usize::MAX))
+        (springs.max_stretch2(x), finite_probe(x, false))
     };
     CellMeasures {
         volume,
@@ -224,9 +210,8 @@ pub(crate) fn mesh_cells(
     }
 }
 
-/// 0 if every coordinate of `x` is finite, NaN if one is not; `task` coordinates to a task on
-/// the pool (`usize::MAX`: on this thread).
-fn finite_probe(x: &Soa, task: usize) -> Real {
+/// 0 if every coordinate of `x` is finite, NaN if one is not; on the pool if `parallel`.
+fn finite_probe(x: &Soa, parallel: bool) -> Real {
     let probe = |v: &[Real]| {
         let mut lanes = [0.0; LANES];
         let mut chunks = v.chunks_exact(LANES);
@@ -238,10 +223,10 @@ fn finite_probe(x: &Soa, task: usize) -> Real {
         chunks.remainder().iter().map(|&v| v * 0.0).sum::<Real>() + lanes.iter().sum::<Real>()
     };
     let of = |v: &[Real]| {
-        if task == usize::MAX {
-            probe(v)
+        if parallel {
+            v.par_chunks(MESH_TASK).map(probe).sum::<Real>()
         } else {
-            v.par_chunks(task).map(probe).sum::<Real>()
+            probe(v)
         }
     };
     // Finite coordinates add zeros; one NaN or infinity makes the sum NaN.

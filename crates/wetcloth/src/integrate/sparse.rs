@@ -256,15 +256,8 @@ fn split_row(a: &BlockCsr, i: usize, lo: usize, hi: usize) -> (usize, usize) {
 
 /// Runs `f(block, rows)` on each smoothing block of `x`, on the pool when `parallel`.
 fn by_blocks(x: &mut [Vec3], parallel: bool, f: impl Fn(usize, &mut [Vec3]) + Sync) {
-    if parallel && x.len() > SWEEP_ROWS {
-        x.par_chunks_mut(SWEEP_ROWS)
-            .enumerate()
-            .for_each(|(c, xs)| f(c * SWEEP_ROWS, xs));
-    } else {
-        x.chunks_mut(SWEEP_ROWS)
-            .enumerate()
-            .for_each(|(c, xs)| f(c * SWEEP_ROWS, xs));
-    }
+    let pooled = parallel && x.len() > SWEEP_ROWS;
+    crate::exec::by_chunks(x, SWEEP_ROWS, pooled, f);
 }
 
 /// `x = (D + L_b)^-1 b`, `L_b` the lower blocks inside each smoothing block: a forward sweep
